@@ -1,0 +1,65 @@
+//! Rays, hits and the [`RayCast`] trait implemented by accelerators.
+
+use crate::PolygonId;
+use glam::Vec3;
+
+/// Marker for "no polygon" in [`Ray::skip`].
+pub const NO_POLYGON: PolygonId = PolygonId::MAX;
+
+/// A ray `origin + t·dir`, `0 < t < t_max` (both ends exclusive).
+///
+/// Self-intersection rule: a ray leaving a patch carries its polygon in `skip`; that
+/// polygon is never reported. A planar polygon cannot be hit again by a ray that leaves
+/// its own plane, so the rule is exact, needs no epsilon offset, and loses no hit on
+/// the polygons that meet it at its edges.
+#[derive(Clone, Copy, Debug)]
+pub struct Ray {
+    pub origin: Vec3,
+    /// Unit direction.
+    pub dir: Vec3,
+    /// Exclusive upper bound on `t`; `f32::INFINITY` for none.
+    pub t_max: f32,
+    /// Polygon that is never hit (the ray's own), or [`NO_POLYGON`].
+    pub skip: PolygonId,
+}
+
+impl Ray {
+    pub fn new(origin: Vec3, dir: Vec3) -> Ray {
+        Ray {
+            origin,
+            dir,
+            t_max: f32::INFINITY,
+            skip: NO_POLYGON,
+        }
+    }
+}
+
+/// A ray–polygon intersection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub polygon: PolygonId,
+    /// Polygon parameters of the hit point: u along edge 0→1, v along edge 0→last.
+    pub u: f32,
+    pub v: f32,
+    /// Distance along the (unit) ray direction.
+    pub t: f32,
+    /// True when the ray meets the polygon's emitting/reflecting side (against its normal).
+    pub front: bool,
+}
+
+/// Visibility queries against a scene's polygons.
+///
+/// `Scratch` is per-thread working memory (the mailbox); make one per thread with
+/// [`RayCast::new_scratch`].
+pub trait RayCast: Sync {
+    type Scratch: Send;
+
+    fn new_scratch(&self) -> Self::Scratch;
+
+    /// The nearest hit with `0 < t < ray.t_max`, whichever side it meets.
+    fn closest_hit(&self, ray: &Ray, scratch: &mut Self::Scratch) -> Option<Hit>;
+
+    /// Every polygon the ray crosses with `0 < t < ray.t_max`, sorted by `t`, appended to
+    /// `out` after clearing it. Each polygon appears once.
+    fn all_hits(&self, ray: &Ray, scratch: &mut Self::Scratch, out: &mut Vec<Hit>);
+}

@@ -1,0 +1,104 @@
+//! Typed errors for scene construction and scene files.
+
+use std::path::PathBuf;
+
+/// What is wrong with one polygon.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum PolygonProblem {
+    #[error("has {count} vertices; a polygon needs at least 3")]
+    TooFewVertices { count: usize },
+    #[error("vertex {vertex} has a coordinate that is NaN or infinite ({value:?})")]
+    NonFinite { vertex: usize, value: [f32; 3] },
+    #[error("is degenerate: area {area:e} (zero-length edge, collinear or repeated vertices)")]
+    Degenerate { area: f64 },
+    #[error("is not planar: vertex {vertex} lies {deviation:e} off its plane (tolerance {tolerance:e}, {rel_tolerance:e} of its diameter)")]
+    NonPlanar {
+        vertex: usize,
+        deviation: f64,
+        tolerance: f64,
+        rel_tolerance: f64,
+    },
+    #[error("is not convex (or its vertices are not in order): it turns the wrong way at vertex {vertex}")]
+    NonConvex { vertex: usize },
+    #[error("has a patch grid of {nu} x {nv}; both counts must be at least 1")]
+    ZeroPatchGrid { nu: u64, nv: u64 },
+    #[error("has a patch grid of {nu} x {nv}, over the limit of {limit} cells a polygon")]
+    PatchGridTooLarge { nu: u64, nv: u64, limit: u64 },
+    #[error("has a target patch size of {size}; it must be finite and > 0")]
+    BadPatchSize { size: f64 },
+    #[error("names material {name:?}, which the scene does not define")]
+    UnknownMaterial { name: String },
+    #[error("uses material index {index}, but the scene has {len} materials")]
+    MaterialIndexOutOfRange { index: usize, len: usize },
+}
+
+/// Errors from building or reading a scene.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    #[error("polygon {polygon} ({name:?}) {problem}")]
+    Polygon {
+        polygon: usize,
+        name: String,
+        problem: PolygonProblem,
+    },
+    #[error("material {material:?} has {what} {value:?}: {rule}")]
+    Material {
+        material: String,
+        what: &'static str,
+        value: [f64; 3],
+        rule: &'static str,
+    },
+    #[error("material name {name:?} is defined twice")]
+    DuplicateMaterial { name: String },
+    #[error("the scene has no polygons")]
+    Empty,
+    #[error("the scene has {count} patches, over the limit of {limit}")]
+    TooManyPatches { count: u64, limit: u64 },
+    #[error("camera {problem}")]
+    Camera { problem: String },
+    #[error("{index_kind} index {index} is out of range (there are {len}) at {place}")]
+    IndexOutOfRange {
+        index_kind: &'static str,
+        index: i64,
+        len: usize,
+        place: String,
+    },
+    #[error("cannot read {}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}:{line}:{column}: {message}", path.display())]
+    Json {
+        path: PathBuf,
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    #[error("{}: {message}", path.display())]
+    Obj { path: PathBuf, message: String },
+    #[error("{}: unsupported scene file extension {ext:?} (expected .json or .obj)", path.display())]
+    UnknownFormat { path: PathBuf, ext: String },
+    #[error("{}: {source}", path.display())]
+    InFile { path: PathBuf, source: Box<Error> },
+}
+
+impl Error {
+    /// The innermost error, past any [`Error::InFile`] wrapper.
+    pub fn root(&self) -> &Error {
+        match self {
+            Error::InFile { source, .. } => source.root(),
+            e => e,
+        }
+    }
+
+    /// The polygon problem, if this is one.
+    pub fn polygon_problem(&self) -> Option<&PolygonProblem> {
+        match self.root() {
+            Error::Polygon { problem, .. } => Some(problem),
+            _ => None,
+        }
+    }
+}

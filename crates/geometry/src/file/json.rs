@@ -1,0 +1,218 @@
+//! The project's JSON scene format (documented in the README).
+
+use crate::error::{Error, PolygonProblem};
+use crate::scene::{Camera, Material, PatchGrid, PolygonDesc, SceneDesc};
+use glam::Vec3;
+use rad_core::Rgb;
+use serde::{Deserialize, Serialize};
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileScene {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    description: Option<String>,
+    /// Default target patch size for polygons that give no grid.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    patch_size: Option<f64>,
+    materials: Vec<FileMaterial>,
+    /// Shared vertex list, for polygons given by `indices`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    vertices: Vec<[f64; 3]>,
+    polygons: Vec<FilePolygon>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    camera: Option<FileCamera>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileMaterial {
+    name: String,
+    reflectance: [f64; 3],
+    #[serde(default)]
+    emission: [f64; 3],
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FilePolygon {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    name: Option<String>,
+    material: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    vertices: Option<Vec<[f64; 3]>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    indices: Option<Vec<i64>>,
+    /// Patch grid `[nu, nv]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    patches: Option<[u64; 2]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    patch_size: Option<f64>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileCamera {
+    position: [f64; 3],
+    look_at: [f64; 3],
+    up: [f64; 3],
+    fov_y_deg: f64,
+}
+
+fn vec3(a: [f64; 3]) -> Vec3 {
+    Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32)
+}
+
+fn arr(v: Vec3) -> [f64; 3] {
+    // Round-trip f32 exactly through its shortest decimal form.
+    v.to_array().map(|c| {
+        c.to_string()
+            .parse::<f64>()
+            .expect("a float formats as a float")
+    })
+}
+
+/// Parses our JSON scene format. `default_patch_size` applies to polygons that give no
+/// grid when the file gives no `patch_size` either.
+///
+/// Syntax errors (and truncated files) come back as [`Error::Json`] with the line and
+/// column; the path is filled in by the caller.
+pub fn scene_desc_from_json(
+    text: &str,
+    default_patch_size: Option<f64>,
+) -> Result<SceneDesc, Error> {
+    let file: FileScene = serde_json::from_str(text).map_err(|e| Error::Json {
+        path: Default::default(),
+        line: e.line(),
+        column: e.column(),
+        message: e.to_string(),
+    })?;
+    let materials: Vec<Material> = file
+        .materials
+        .iter()
+        .map(|m| Material {
+            name: m.name.clone(),
+            reflectance: Rgb(m.reflectance),
+            emission: Rgb(m.emission),
+        })
+        .collect();
+    let mut polygons = Vec::with_capacity(file.polygons.len());
+    for (idx, p) in file.polygons.into_iter().enumerate() {
+        let name = p.name.clone().unwrap_or_else(|| format!("polygon {idx}"));
+        let fail = |problem| Error::Polygon {
+            polygon: idx,
+            name: name.clone(),
+            problem,
+        };
+        let material = materials
+            .iter()
+            .position(|m| m.name == p.material)
+            .ok_or_else(|| {
+                fail(PolygonProblem::UnknownMaterial {
+                    name: p.material.clone(),
+                })
+            })?;
+        let vertices: Vec<Vec3> = match (&p.vertices, &p.indices) {
+            (Some(v), None) => v.iter().copied().map(vec3).collect(),
+            (None, Some(ix)) => ix
+                .iter()
+                .map(|&i| {
+                    usize::try_from(i)
+                        .ok()
+                        .and_then(|u| file.vertices.get(u))
+                        .copied()
+                        .map(vec3)
+                        .ok_or_else(|| Error::IndexOutOfRange {
+                            index_kind: "vertex",
+                            index: i,
+                            len: file.vertices.len(),
+                            place: format!("polygon {idx} ({name:?})"),
+                        })
+                })
+                .collect::<Result<_, _>>()?,
+            _ => return Err(Error::Json {
+                path: Default::default(),
+                line: 0,
+                column: 0,
+                message: format!(
+                    "polygon {idx} ({name:?}) must give exactly one of \"vertices\" or \"indices\""
+                ),
+            }),
+        };
+        let grid = match (p.patches, p.patch_size.or(file.patch_size).or(default_patch_size)) {
+            (Some([nu, nv]), _) => PatchGrid::Cells { nu, nv },
+            (None, Some(size)) => PatchGrid::Size(size),
+            (None, None) => {
+                return Err(Error::Json {
+                    path: Default::default(),
+                    line: 0,
+                    column: 0,
+                    message: format!(
+                        "polygon {idx} ({name:?}) has no patch grid: give \"patches\": [nu, nv] or \"patch_size\" (or --patch-size)"
+                    ),
+                })
+            }
+        };
+        polygons.push(PolygonDesc {
+            name,
+            vertices,
+            material,
+            grid,
+        });
+    }
+    let camera = file.camera.map(|c| Camera {
+        position: vec3(c.position),
+        look_at: vec3(c.look_at),
+        up: vec3(c.up),
+        fov_y: c.fov_y_deg.to_radians() as f32,
+    });
+    Ok(SceneDesc {
+        materials,
+        polygons,
+        camera,
+    })
+}
+
+/// Writes a description in our JSON format (vertices inline, grids as given).
+pub fn scene_desc_to_json(desc: &SceneDesc, description: Option<&str>) -> String {
+    let file = FileScene {
+        description: description.map(str::to_string),
+        patch_size: None,
+        materials: desc
+            .materials
+            .iter()
+            .map(|m| FileMaterial {
+                name: m.name.clone(),
+                reflectance: m.reflectance.0,
+                emission: m.emission.0,
+            })
+            .collect(),
+        vertices: Vec::new(),
+        polygons: desc
+            .polygons
+            .iter()
+            .map(|p| {
+                let (patches, patch_size) = match p.grid {
+                    PatchGrid::Cells { nu, nv } => (Some([nu, nv]), None),
+                    PatchGrid::Size(s) => (None, Some(s)),
+                };
+                FilePolygon {
+                    name: Some(p.name.clone()),
+                    material: desc.materials[p.material].name.clone(),
+                    vertices: Some(p.vertices.iter().copied().map(arr).collect()),
+                    indices: None,
+                    patches,
+                    patch_size,
+                }
+            })
+            .collect(),
+        camera: desc.camera.map(|c| FileCamera {
+            position: arr(c.position),
+            look_at: arr(c.look_at),
+            up: arr(c.up),
+            fov_y_deg: (c.fov_y as f64).to_degrees(),
+        }),
+    };
+    let mut s = serde_json::to_string_pretty(&file).expect("a scene always serialises");
+    s.push('\n');
+    s
+}

@@ -1,0 +1,13 @@
+//! Polygons, patch textures, patches and scenes: validation, the JSON and OBJ/MTL scene
+//! files, and the bench-scene builders.
+
+mod clip;
+mod error;
+pub mod file;
+mod polygon;
+mod scene;
+pub mod scenes;
+
+pub use error::{Error, PolygonProblem};
+pub use polygon::{Patch, Polygon, PolygonHit, MAX_CELLS_PER_POLYGON, PLANARITY_TOLERANCE};
+pub use scene::{Camera, Material, PatchGrid, PolygonDesc, Scene, SceneDesc, MAX_PATCHES};

@@ -1,0 +1,390 @@
+//! Planar convex polygons with their patch textures: validation, ray intersection, and
+//! the O(1) map from a hit's (u, v) to a patch id.
+
+use crate::clip::{clip_convex, polygon_area_centroid};
+use crate::error::PolygonProblem;
+use glam::{DVec3, Vec3};
+use rad_core::{Frame, PatchId};
+
+/// Largest deviation from planarity accepted, as a fraction of the polygon's diameter.
+pub const PLANARITY_TOLERANCE: f64 = 1e-4;
+/// Largest patch grid accepted on one polygon (cells, nu · nv).
+pub const MAX_CELLS_PER_POLYGON: u64 = 1 << 24;
+/// A clipped cell smaller than this fraction of a whole cell is no patch.
+const MIN_CELL_FRACTION: f64 = 1e-9;
+
+/// A polygon's (u, v) parametrisation: `p = origin + u·e_u + v·e_v`.
+///
+/// u runs along the edge from vertex 0 to vertex 1, v along the edge from vertex 0 to the
+/// last vertex; the normal is `e_u × e_v` normalised, and the vertices turn
+/// counter-clockwise seen from the side it points to.
+#[derive(Clone, Debug)]
+pub struct Polygon {
+    // Hot fields first: they are all an intersection reads.
+    normal: Vec3,
+    plane_d: f32,
+    origin: Vec3,
+    du: Vec3,
+    dv: Vec3,
+    eps_u: f32,
+    eps_v: f32,
+    eps: f32,
+    parallelogram: bool,
+    /// Inward edge functions in (u, v): `a·u + b·v + c` is the distance (world units)
+    /// inside the edge's line.
+    edges: Vec<[f32; 3]>,
+    nu: u32,
+    nv: u32,
+    first_patch: PatchId,
+    /// Patch of each cell (`j·nu + i`); a cell with no area holds its nearest patch of
+    /// the same row (or of the nearest non-empty row), so lookups are total.
+    cell_patch: Vec<PatchId>,
+    // Cold fields.
+    name: String,
+    vertices: Vec<Vec3>,
+    uv_vertices: Vec<[f64; 2]>,
+    e_u: Vec3,
+    e_v: Vec3,
+    frame: Frame,
+    material: u32,
+    area: f64,
+}
+
+/// One patch: a (clipped) cell of a polygon's patch texture.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Patch {
+    pub polygon: u32,
+    /// Cell (i, j) in the polygon's patch texture, i along u.
+    pub cell: [u32; 2],
+    /// Centroid of the clipped cell.
+    pub center: Vec3,
+    pub normal: Vec3,
+    /// The clipped cell's corners, counter-clockwise seen from the normal's side.
+    pub corners: Vec<Vec3>,
+    pub area: f64,
+    /// True when the cell touches the polygon's boundary (clipped, or a grid edge).
+    pub on_boundary: bool,
+}
+
+/// A polygon's patches, as built with it.
+pub(crate) struct Built {
+    pub polygon: Polygon,
+    pub patches: Vec<Patch>,
+}
+
+/// Result of a ray–polygon intersection: `(t, u, v, front)`.
+pub type PolygonHit = (f32, f32, f32, bool);
+
+impl Polygon {
+    /// Validates `vertices` and builds the polygon with an `nu × nv` patch texture whose
+    /// patches are numbered from `first_patch`.
+    pub(crate) fn build(
+        name: String,
+        vertices: Vec<Vec3>,
+        material: u32,
+        nu: u64,
+        nv: u64,
+        first_patch: PatchId,
+    ) -> Result<Built, PolygonProblem> {
+        let n_vertices = vertices.len();
+        if n_vertices < 3 {
+            return Err(PolygonProblem::TooFewVertices { count: n_vertices });
+        }
+        if let Some((vertex, p)) = vertices.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+            return Err(PolygonProblem::NonFinite {
+                vertex,
+                value: p.to_array(),
+            });
+        }
+        let pts: Vec<DVec3> = vertices.iter().map(|p| p.as_dvec3()).collect();
+        // Newell's normal: robust for any planar polygon; its length is twice the area.
+        let mut newell = DVec3::ZERO;
+        for k in 0..n_vertices {
+            newell += pts[k].cross(pts[(k + 1) % n_vertices]);
+        }
+        let diameter = pts
+            .iter()
+            .flat_map(|a| pts.iter().map(move |b| (*a - *b).length()))
+            .fold(0.0, f64::max);
+        let area = 0.5 * newell.length();
+        let min_edge = (0..n_vertices)
+            .map(|k| (pts[(k + 1) % n_vertices] - pts[k]).length())
+            .fold(f64::INFINITY, f64::min);
+        if !(area > 1e-12 * diameter * diameter) || diameter == 0.0 || !(min_edge > 1e-9 * diameter)
+        {
+            return Err(PolygonProblem::Degenerate { area });
+        }
+        let normal = newell / newell.length();
+        let centroid = pts.iter().copied().sum::<DVec3>() / n_vertices as f64;
+        let tolerance = PLANARITY_TOLERANCE * diameter;
+        for (vertex, p) in pts.iter().enumerate() {
+            let deviation = (*p - centroid).dot(normal).abs();
+            if deviation > tolerance {
+                return Err(PolygonProblem::NonPlanar {
+                    vertex,
+                    deviation,
+                    tolerance,
+                    rel_tolerance: PLANARITY_TOLERANCE,
+                });
+            }
+        }
+        // Convex, with every turn the same way as the normal (collinear vertices allowed).
+        for k in 0..n_vertices {
+            let a = pts[k];
+            let b = pts[(k + 1) % n_vertices];
+            let c = pts[(k + 2) % n_vertices];
+            let turn = (b - a).cross(c - b).dot(normal);
+            if turn < -1e-9 * diameter * diameter {
+                return Err(PolygonProblem::NonConvex {
+                    vertex: (k + 1) % n_vertices,
+                });
+            }
+        }
+        if nu == 0 || nv == 0 {
+            return Err(PolygonProblem::ZeroPatchGrid { nu, nv });
+        }
+        if nu.saturating_mul(nv) > MAX_CELLS_PER_POLYGON {
+            return Err(PolygonProblem::PatchGridTooLarge {
+                nu,
+                nv,
+                limit: MAX_CELLS_PER_POLYGON,
+            });
+        }
+
+        let origin = pts[0];
+        let e_u = pts[1] - origin;
+        let e_v = pts[n_vertices - 1] - origin;
+        let cross = e_u.cross(e_v);
+        if !(cross.dot(normal) > 1e-9 * diameter * diameter) {
+            // Vertex 1, 0 and the last vertex are collinear: no (u, v) frame.
+            return Err(PolygonProblem::Degenerate { area });
+        }
+        let par_area = cross.dot(normal);
+        // Dual basis: u = (p − o)·du, v = (p − o)·dv.
+        let du = e_v.cross(normal) / e_v.cross(normal).dot(e_u);
+        let dv = normal.cross(e_u) / normal.cross(e_u).dot(e_v);
+        let uv_vertices: Vec<[f64; 2]> = pts
+            .iter()
+            .map(|p| [(*p - origin).dot(du), (*p - origin).dot(dv)])
+            .collect();
+        let parallelogram = n_vertices == 4
+            && (uv_vertices[2][0] - 1.0).abs() < 1e-6
+            && (uv_vertices[2][1] - 1.0).abs() < 1e-6;
+        // Inward edge functions, scaled to world distance.
+        let edges: Vec<[f32; 3]> = (0..n_vertices)
+            .map(|k| {
+                let a = pts[k];
+                let b = pts[(k + 1) % n_vertices];
+                let m = normal.cross((b - a).normalize());
+                [
+                    m.dot(e_u) as f32,
+                    m.dot(e_v) as f32,
+                    m.dot(origin - a) as f32,
+                ]
+            })
+            .collect();
+        let max_coord = pts
+            .iter()
+            .map(|p| p.abs().max_element())
+            .fold(0.0, f64::max);
+        let eps = (4e-6 * (max_coord + diameter)) as f32;
+
+        // Patch texture.
+        let (nu32, nv32) = (nu as u32, nv as u32);
+        let cell_full = 1.0 / (nu as f64 * nv as f64);
+        let mut cell_patch = vec![PatchId::MAX; (nu * nv) as usize];
+        let mut patches = Vec::new();
+        let normal_f = normal.as_vec3();
+        let world = |uv: [f64; 2]| (origin + e_u * uv[0] + e_v * uv[1]).as_vec3();
+        let mut shapes: Vec<Option<Vec<[f64; 2]>>> = vec![None; (nu * nv) as usize];
+        for j in 0..nv32 {
+            for i in 0..nu32 {
+                let (u0, u1) = (i as f64 / nu as f64, (i + 1) as f64 / nu as f64);
+                let (v0, v1) = (j as f64 / nv as f64, (j + 1) as f64 / nv as f64);
+                let square = vec![[u0, v0], [u1, v0], [u1, v1], [u0, v1]];
+                let cell = if parallelogram {
+                    square
+                } else {
+                    clip_convex(&square, &uv_vertices)
+                };
+                let idx = (j * nu32 + i) as usize;
+                let (a, _) = polygon_area_centroid(&cell);
+                if a > MIN_CELL_FRACTION * cell_full {
+                    shapes[idx] = Some(cell);
+                }
+            }
+        }
+        for j in 0..nv32 {
+            for i in 0..nu32 {
+                let idx = (j * nu32 + i) as usize;
+                let Some(cell) = &shapes[idx] else { continue };
+                let (a_uv, c_uv) = polygon_area_centroid(cell);
+                let has = |ii: i64, jj: i64| {
+                    ii >= 0
+                        && jj >= 0
+                        && ii < nu as i64
+                        && jj < nv as i64
+                        && shapes[(jj as u64 * nu + ii as u64) as usize].is_some()
+                };
+                let (ii, jj) = (i as i64, j as i64);
+                let on_boundary = a_uv < cell_full * (1.0 - 1e-9)
+                    || !has(ii - 1, jj)
+                    || !has(ii + 1, jj)
+                    || !has(ii, jj - 1)
+                    || !has(ii, jj + 1);
+                cell_patch[idx] = first_patch + patches.len() as PatchId;
+                patches.push(Patch {
+                    polygon: 0, // set by the scene
+                    cell: [i, j],
+                    center: world(c_uv),
+                    normal: normal_f,
+                    corners: cell.iter().map(|&p| world(p)).collect(),
+                    area: a_uv * par_area,
+                    on_boundary,
+                });
+            }
+        }
+        fill_empty_cells(&mut cell_patch, nu32, nv32);
+
+        let e_u_f = e_u.as_vec3();
+        let polygon = Polygon {
+            normal: normal_f,
+            plane_d: normal.dot(origin) as f32,
+            origin: origin.as_vec3(),
+            du: du.as_vec3(),
+            dv: dv.as_vec3(),
+            eps_u: (eps as f64 * du.length()) as f32,
+            eps_v: (eps as f64 * dv.length()) as f32,
+            eps,
+            parallelogram,
+            edges,
+            nu: nu32,
+            nv: nv32,
+            first_patch,
+            cell_patch,
+            name,
+            vertices,
+            uv_vertices,
+            e_u: e_u_f,
+            e_v: e_v.as_vec3(),
+            frame: Frame::from_normal_edge(normal_f, e_u_f),
+            material,
+            area,
+        };
+        Ok(Built { polygon, patches })
+    }
+
+    /// Intersects the ray `o + t·d`, `0 < t < t_max`, with this polygon.
+    ///
+    /// Points within a few ulps of the scene's scale outside an edge count as inside, so
+    /// polygons that share an edge leave no crack for a ray to slip through.
+    #[inline]
+    pub fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<PolygonHit> {
+        let denom = self.normal.dot(d);
+        if denom == 0.0 {
+            return None;
+        }
+        let t = (self.plane_d - self.normal.dot(o)) / denom;
+        if !(t > 0.0 && t < t_max) {
+            return None;
+        }
+        let r = o + d * t - self.origin;
+        let u = r.dot(self.du);
+        let v = r.dot(self.dv);
+        let inside = if self.parallelogram {
+            u >= -self.eps_u && v >= -self.eps_v && u <= 1.0 + self.eps_u && v <= 1.0 + self.eps_v
+        } else {
+            self.edges
+                .iter()
+                .all(|e| e[0] * u + e[1] * v + e[2] >= -self.eps)
+        };
+        inside.then_some((t, u, v, denom < 0.0))
+    }
+
+    /// The patch containing parameters (u, v); (u, v) slightly outside [0, 1]² is clamped.
+    #[inline]
+    pub fn patch_at(&self, u: f32, v: f32) -> PatchId {
+        let i = ((u * self.nu as f32) as i32).clamp(0, self.nu as i32 - 1) as u32;
+        let j = ((v * self.nv as f32) as i32).clamp(0, self.nv as i32 - 1) as u32;
+        self.cell_patch[(j * self.nu + i) as usize]
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    pub fn vertices(&self) -> &[Vec3] {
+        &self.vertices
+    }
+    /// Vertices in (u, v) coordinates: vertex 0 is (0, 0), vertex 1 is (1, 0), the last (0, 1).
+    pub fn uv_vertices(&self) -> &[[f64; 2]] {
+        &self.uv_vertices
+    }
+    pub fn normal(&self) -> Vec3 {
+        self.normal
+    }
+    pub fn origin(&self) -> Vec3 {
+        self.origin
+    }
+    pub fn e_u(&self) -> Vec3 {
+        self.e_u
+    }
+    pub fn e_v(&self) -> Vec3 {
+        self.e_v
+    }
+    /// Hemisphere frame of the polygon's patches: t along e_u, n the normal.
+    pub fn frame(&self) -> Frame {
+        self.frame
+    }
+    pub fn material(&self) -> u32 {
+        self.material
+    }
+    pub fn area(&self) -> f64 {
+        self.area
+    }
+    /// Patch-texture size (nu, nv).
+    pub fn grid(&self) -> (u32, u32) {
+        (self.nu, self.nv)
+    }
+    pub fn first_patch(&self) -> PatchId {
+        self.first_patch
+    }
+    pub fn is_parallelogram(&self) -> bool {
+        self.parallelogram
+    }
+    /// Position of parameters (u, v).
+    pub fn point(&self, u: f32, v: f32) -> Vec3 {
+        self.origin + self.e_u * u + self.e_v * v
+    }
+    /// Parameters of point `p` (projected onto the plane).
+    pub fn uv(&self, p: Vec3) -> (f32, f32) {
+        let r = p - self.origin;
+        (r.dot(self.du), r.dot(self.dv))
+    }
+}
+
+/// Gives each patch-less cell the patch of the nearest non-empty cell of its row (or of
+/// the nearest non-empty row): the cells of a convex polygon on a row are contiguous.
+fn fill_empty_cells(cell_patch: &mut [PatchId], nu: u32, nv: u32) {
+    let (nu, nv) = (nu as usize, nv as usize);
+    let row_range = |cp: &[PatchId], j: usize| {
+        let row = &cp[j * nu..(j + 1) * nu];
+        let first = row.iter().position(|&p| p != PatchId::MAX)?;
+        let last = row.iter().rposition(|&p| p != PatchId::MAX)?;
+        Some((first, last))
+    };
+    let ranges: Vec<Option<(usize, usize)>> = (0..nv).map(|j| row_range(cell_patch, j)).collect();
+    for j in 0..nv {
+        // Nearest row with patches.
+        let src = (0..nv)
+            .filter(|&jj| ranges[jj].is_some())
+            .min_by_key(|&jj| (jj as i64 - j as i64).abs())
+            .expect("a valid polygon has at least one patch");
+        let (first, last) = ranges[src].expect("filtered above");
+        for i in 0..nu {
+            if cell_patch[j * nu + i] == PatchId::MAX {
+                let ii = i.clamp(first, last);
+                cell_patch[j * nu + i] = cell_patch[src * nu + ii];
+            }
+        }
+    }
+}

@@ -1,0 +1,221 @@
+//! Scenes: validated polygons with their patches, materials and an optional camera.
+
+use crate::error::{Error, PolygonProblem};
+use crate::polygon::{Patch, Polygon};
+use glam::Vec3;
+use rad_core::{PatchId, Rgb};
+
+/// Largest number of patches a scene may have.
+pub const MAX_PATCHES: u64 = 1 << 26;
+
+/// A diffuse material: reflectance in [0, 1) and emission (exitance, W·m⁻²) ≥ 0.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub reflectance: Rgb,
+    pub emission: Rgb,
+}
+
+/// How a polygon's patch texture is cut.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PatchGrid {
+    /// Exactly `nu × nv` cells.
+    Cells { nu: u64, nv: u64 },
+    /// Cells about `size` long on each edge: `nu = max(1, round(|e_u| / size))`, same for v.
+    Size(f64),
+}
+
+/// A pinhole camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    pub look_at: Vec3,
+    pub up: Vec3,
+    /// Vertical field of view, radians.
+    pub fov_y: f32,
+}
+
+/// One polygon as described, before validation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PolygonDesc {
+    pub name: String,
+    pub vertices: Vec<Vec3>,
+    /// Index into [`SceneDesc::materials`].
+    pub material: usize,
+    pub grid: PatchGrid,
+}
+
+/// A scene as described, before validation.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SceneDesc {
+    pub materials: Vec<Material>,
+    pub polygons: Vec<PolygonDesc>,
+    pub camera: Option<Camera>,
+}
+
+/// A validated scene: polygons, their patches (numbered polygon by polygon), materials
+/// and an optional camera.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    polygons: Vec<Polygon>,
+    patches: Vec<Patch>,
+    materials: Vec<Material>,
+    camera: Option<Camera>,
+    bounds: (Vec3, Vec3),
+}
+
+impl Scene {
+    /// Validates a description and builds every polygon's patch texture.
+    pub fn new(desc: SceneDesc) -> Result<Scene, Error> {
+        let mut seen = std::collections::HashSet::new();
+        for m in &desc.materials {
+            if !seen.insert(m.name.as_str()) {
+                return Err(Error::DuplicateMaterial {
+                    name: m.name.clone(),
+                });
+            }
+            let r = m.reflectance.0;
+            if !r.iter().all(|c| c.is_finite() && (0.0..1.0).contains(c)) {
+                return Err(Error::Material {
+                    material: m.name.clone(),
+                    what: "reflectance",
+                    value: r,
+                    rule: "each channel must be in [0, 1)",
+                });
+            }
+            let e = m.emission.0;
+            if !e.iter().all(|c| c.is_finite() && *c >= 0.0) {
+                return Err(Error::Material {
+                    material: m.name.clone(),
+                    what: "emission",
+                    value: e,
+                    rule: "each channel must be finite and >= 0",
+                });
+            }
+        }
+        if desc.polygons.is_empty() {
+            return Err(Error::Empty);
+        }
+        if let Some(c) = &desc.camera {
+            let fin = c.position.is_finite() && c.look_at.is_finite() && c.up.is_finite();
+            let dir = c.look_at - c.position;
+            if !fin
+                || dir.length() == 0.0
+                || dir.cross(c.up).length() <= 1e-6 * dir.length() * c.up.length()
+            {
+                return Err(Error::Camera {
+                    problem: "needs finite position, look_at and up, with up not parallel to the view direction".into(),
+                });
+            }
+            if !(c.fov_y > 0.0 && c.fov_y < std::f32::consts::PI) {
+                return Err(Error::Camera {
+                    problem: format!("field of view {} rad is not in (0, pi)", c.fov_y),
+                });
+            }
+        }
+        let mut polygons = Vec::with_capacity(desc.polygons.len());
+        let mut patches: Vec<Patch> = Vec::new();
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for (idx, pd) in desc.polygons.into_iter().enumerate() {
+            let fail = |name: &str, problem| Error::Polygon {
+                polygon: idx,
+                name: name.to_string(),
+                problem,
+            };
+            if pd.material >= desc.materials.len() {
+                return Err(fail(
+                    &pd.name,
+                    PolygonProblem::MaterialIndexOutOfRange {
+                        index: pd.material,
+                        len: desc.materials.len(),
+                    },
+                ));
+            }
+            let (nu, nv) = grid_cells(&pd).map_err(|p| fail(&pd.name, p))?;
+            if patches.len() as u64 + nu.saturating_mul(nv) > MAX_PATCHES {
+                return Err(Error::TooManyPatches {
+                    count: patches.len() as u64 + nu.saturating_mul(nv),
+                    limit: MAX_PATCHES,
+                });
+            }
+            let name = pd.name.clone();
+            let built = Polygon::build(
+                pd.name,
+                pd.vertices,
+                pd.material as u32,
+                nu,
+                nv,
+                patches.len() as PatchId,
+            )
+            .map_err(|p| fail(&name, p))?;
+            for v in built.polygon.vertices() {
+                lo = lo.min(*v);
+                hi = hi.max(*v);
+            }
+            patches.extend(built.patches.into_iter().map(|mut p| {
+                p.polygon = idx as u32;
+                p
+            }));
+            polygons.push(built.polygon);
+        }
+        Ok(Scene {
+            polygons,
+            patches,
+            materials: desc.materials,
+            camera: desc.camera,
+            bounds: (lo, hi),
+        })
+    }
+
+    pub fn polygons(&self) -> &[Polygon] {
+        &self.polygons
+    }
+    pub fn patches(&self) -> &[Patch] {
+        &self.patches
+    }
+    pub fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+    pub fn camera(&self) -> Option<&Camera> {
+        self.camera.as_ref()
+    }
+    /// Axis-aligned bounds of all vertices (min, max).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.bounds
+    }
+    /// Material of a patch.
+    pub fn patch_material(&self, patch: PatchId) -> &Material {
+        let poly = self.patches[patch as usize].polygon;
+        &self.materials[self.polygons[poly as usize].material() as usize]
+    }
+}
+
+/// The patch-grid size of a polygon description.
+fn grid_cells(pd: &PolygonDesc) -> Result<(u64, u64), PolygonProblem> {
+    match pd.grid {
+        PatchGrid::Cells { nu, nv } => Ok((nu, nv)),
+        PatchGrid::Size(size) => {
+            if !(size.is_finite() && size > 0.0) {
+                return Err(PolygonProblem::BadPatchSize { size });
+            }
+            if pd.vertices.len() < 3 {
+                return Err(PolygonProblem::TooFewVertices {
+                    count: pd.vertices.len(),
+                });
+            }
+            let v = &pd.vertices;
+            let lu = (v[1] - v[0]).length() as f64;
+            let lv = (v[v.len() - 1] - v[0]).length() as f64;
+            let cells = |l: f64| {
+                let c = (l / size).round();
+                if c.is_finite() {
+                    (c as u64).max(1)
+                } else {
+                    u64::MAX
+                }
+            };
+            Ok((cells(lu), cells(lv)))
+        }
+    }
+}

@@ -1,0 +1,85 @@
+//! Deterministic builders of the bench scenes: the report's empty cube, our loft-like
+//! interior (the report never published its loft), and the Cornell box.
+
+mod cornell;
+mod cube;
+mod loft;
+
+pub use cornell::cornell_box;
+pub use cube::{cube, CUBE_FACES};
+
+use crate::scene::{Material, PatchGrid, PolygonDesc};
+use glam::Vec3;
+use rad_core::Rgb;
+
+/// A parallelogram `o, o+e_u, o+e_u+e_v, o+e_v`; its normal is `e_u × e_v`.
+pub(crate) fn rect(
+    name: impl Into<String>,
+    o: Vec3,
+    e_u: Vec3,
+    e_v: Vec3,
+    material: usize,
+    grid: PatchGrid,
+) -> PolygonDesc {
+    PolygonDesc {
+        name: name.into(),
+        vertices: vec![o, o + e_u, o + e_u + e_v, o + e_v],
+        material,
+        grid,
+    }
+}
+
+/// Patch grid of a rectangle with edges `lu`, `lv` cut into cells of about `size`.
+pub(crate) fn cells_for(lu: f32, lv: f32, size: f32) -> PatchGrid {
+    let c = |l: f32| ((l / size).round() as u64).max(1);
+    PatchGrid::Cells {
+        nu: c(lu),
+        nv: c(lv),
+    }
+}
+
+/// The six faces of the box `[lo, hi]`, facing out (`outward`) or in, each cut into
+/// cells of about `size`. Order: −x, +x, −y, +y, −z, +z.
+pub(crate) fn box_faces(
+    name: &str,
+    lo: Vec3,
+    hi: Vec3,
+    material: usize,
+    size: f32,
+    outward: bool,
+) -> Vec<PolygonDesc> {
+    let d = hi - lo;
+    let (x, y, z) = (Vec3::X * d.x, Vec3::Y * d.y, Vec3::Z * d.z);
+    // (label, origin, a, b) with a × b pointing outward.
+    let faces = [
+        ("-x", lo, z, y),
+        ("+x", Vec3::new(hi.x, lo.y, lo.z), y, z),
+        ("-y", lo, x, z),
+        ("+y", Vec3::new(lo.x, hi.y, lo.z), z, x),
+        ("-z", lo, y, x),
+        ("+z", Vec3::new(lo.x, lo.y, hi.z), x, y),
+    ];
+    faces
+        .into_iter()
+        .map(|(label, o, a, b)| {
+            let (a, b) = if outward { (a, b) } else { (b, a) };
+            rect(
+                format!("{name} {label}"),
+                o,
+                a,
+                b,
+                material,
+                cells_for(a.length(), b.length(), size),
+            )
+        })
+        .collect()
+}
+
+pub(crate) fn material(name: &str, reflectance: [f64; 3], emission: [f64; 3]) -> Material {
+    Material {
+        name: name.to_string(),
+        reflectance: Rgb(reflectance),
+        emission: Rgb(emission),
+    }
+}
+pub use loft::{loft, loft_boxes, LOFT_SIZE};

@@ -1,0 +1,1 @@
+//! Bad input gets a typed error naming the polygon and the problem.

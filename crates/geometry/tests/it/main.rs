@@ -1,0 +1,5 @@
+//! Integration tests of rad-geometry.
+
+mod errors;
+mod props;
+mod scenes;

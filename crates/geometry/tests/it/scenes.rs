@@ -1,0 +1,94 @@
+//! The bench scenes' counts and shapes.
+
+use rad_geometry::scenes::{cornell_box, cube, loft};
+use rad_geometry::Scene;
+
+#[test]
+fn cube_has_600_patches_of_equal_area() {
+    let s = Scene::new(cube(10)).unwrap();
+    assert_eq!(s.polygons().len(), 6);
+    assert_eq!(s.patches().len(), 600);
+    for p in s.patches() {
+        assert!((p.area - 0.01).abs() < 1e-9, "{p:?}");
+        // Normals face into the cube: the centre is in front of every patch.
+        let to_centre = glam::Vec3::splat(0.5) - p.center;
+        assert!(to_centre.dot(p.normal) > 0.4);
+    }
+    // Floor patch (3, 4) is patch 43 with its centre at u = 0.35 (z), v = 0.45 (x).
+    let p = &s.patches()[43];
+    assert_eq!(p.cell, [3, 4]);
+    assert!((p.center - glam::Vec3::new(0.45, 0.0, 0.35)).length() < 1e-6);
+}
+
+#[test]
+fn loft_has_the_reports_counts() {
+    let s = Scene::new(loft()).unwrap();
+    assert_eq!(s.polygons().len(), 185);
+    assert_eq!(s.patches().len(), 14_400);
+}
+
+#[test]
+fn loft_boxes_are_disjoint_and_inside_the_room() {
+    use rad_geometry::scenes::{loft_boxes, LOFT_SIZE};
+    let boxes = loft_boxes();
+    assert_eq!(boxes.len(), 29);
+    for (name, lo, hi, _, _) in &boxes {
+        for k in 0..3 {
+            assert!(
+                lo[k] >= 0.02 - 1e-6 && hi[k] <= LOFT_SIZE[k] - 0.02 + 1e-6,
+                "{name} leaves the room"
+            );
+            assert!(lo[k] < hi[k]);
+        }
+    }
+    for (a, (na, la, ha, _, _)) in boxes.iter().enumerate() {
+        for (nb, lb, hb, _, _) in &boxes[a + 1..] {
+            // Separated by at least 2 cm along some axis.
+            let apart =
+                (0..3).any(|k| la[k] >= hb[k] + 0.02 - 1e-5 || lb[k] >= ha[k] + 0.02 - 1e-5);
+            assert!(apart, "{na} and {nb} are closer than 2 cm");
+        }
+    }
+}
+
+#[test]
+fn cornell_box_builds_with_every_patch_facing_into_the_box() {
+    let s = Scene::new(cornell_box(50.0)).unwrap();
+    assert!(s.patches().len() > 100);
+    let centre = glam::Vec3::new(278.0, 274.4, 279.6);
+    let light = s
+        .materials()
+        .iter()
+        .position(|m| m.name == "light")
+        .unwrap() as u32;
+    let light_area: f64 = s
+        .polygons()
+        .iter()
+        .filter(|p| p.material() == light)
+        .map(|p| p.area())
+        .sum();
+    assert!((light_area - 130.0 * 105.0).abs() < 1e-3);
+    // The floor pieces cover the floor less the two block footprints.
+    let floor: f64 = s
+        .polygons()
+        .iter()
+        .filter(|p| p.name().starts_with("floor"))
+        .map(|p| p.area())
+        .sum();
+    let full = 0.5 * (552.8 + 549.6) * 559.2;
+    assert!(
+        floor < full - 20_000.0 && floor > full - 60_000.0,
+        "floor area {floor}"
+    );
+    for p in s.patches() {
+        let poly = &s.polygons()[p.polygon as usize];
+        if poly.name().starts_with("short") || poly.name().starts_with("tall") {
+            continue;
+        }
+        assert!(
+            (centre - p.center).dot(p.normal) > 0.0,
+            "{} faces out",
+            poly.name()
+        );
+    }
+}

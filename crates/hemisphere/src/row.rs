@@ -1,0 +1,186 @@
+//! Item buffers (what each cell sees) and sparse form-factor rows.
+
+use crate::{Error, Hemisphere};
+use rad_core::{PatchId, Ray, RayCast};
+use rad_geometry::Scene;
+use rayon::prelude::*;
+
+/// Item-buffer id of a cell whose ray left the scene.
+pub const ESCAPED: PatchId = PatchId::MAX;
+/// Item-buffer id of a cell whose ray met a polygon from behind (see DESIGN.md §2).
+pub const BACK: PatchId = PatchId::MAX - 1;
+
+/// What each cell of one hemisphere sees: a patch id (or [`ESCAPED`], [`BACK`]) and the
+/// distance R to it (infinite for escaped rays).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ItemBuffer {
+    pub patch: Vec<PatchId>,
+    pub dist: Vec<f32>,
+}
+
+/// One row of the form-factor matrix: `F_pj` for every patch j that p sees, sorted by j.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    pub patch: PatchId,
+    pub entries: Vec<(PatchId, f64)>,
+    /// Form factor of cells that met a polygon from behind.
+    pub back: f64,
+    /// Form factor of cells whose ray left the scene.
+    pub escaped: f64,
+}
+
+impl Row {
+    /// Σ_j F_pj (without back and escaped).
+    pub fn sum(&self) -> f64 {
+        self.entries.iter().map(|e| e.1).sum()
+    }
+
+    /// F_pj, 0 where p does not see j.
+    pub fn get(&self, j: PatchId) -> f64 {
+        self.entries
+            .binary_search_by_key(&j, |e| e.0)
+            .map(|k| self.entries[k].1)
+            .unwrap_or(0.0)
+    }
+}
+
+/// Dense f64 accumulator for building rows, reused across rows (one per thread).
+#[derive(Clone, Debug)]
+pub struct RowAccumulator {
+    acc: Vec<f64>,
+    touched: Vec<PatchId>,
+}
+
+impl RowAccumulator {
+    pub fn new(n_patches: usize) -> RowAccumulator {
+        RowAccumulator {
+            acc: vec![0.0; n_patches],
+            touched: Vec::new(),
+        }
+    }
+
+    #[inline]
+    pub fn add(&mut self, patch: PatchId, ff: f64) {
+        let a = &mut self.acc[patch as usize];
+        if *a == 0.0 {
+            self.touched.push(patch);
+        }
+        *a += ff;
+    }
+
+    /// The accumulated entries, sorted by patch; resets the accumulator.
+    pub fn take(&mut self) -> Vec<(PatchId, f64)> {
+        self.touched.sort_unstable();
+        let out = self
+            .touched
+            .iter()
+            .map(|&j| (j, std::mem::take(&mut self.acc[j as usize])))
+            .collect();
+        self.touched.clear();
+        out
+    }
+}
+
+impl Hemisphere {
+    /// Casts one ray per cell from the centre of `patch`; fills `buf`.
+    pub fn cast<C: RayCast>(
+        &self,
+        scene: &Scene,
+        caster: &C,
+        patch: PatchId,
+        scratch: &mut C::Scratch,
+        buf: &mut ItemBuffer,
+    ) {
+        let p = &scene.patches()[patch as usize];
+        let frame = scene.polygons()[p.polygon as usize].frame();
+        let polygons = scene.polygons();
+        buf.patch.clear();
+        buf.dist.clear();
+        buf.patch.reserve(self.n_cells());
+        buf.dist.reserve(self.n_cells());
+        let mut ray = Ray::new(p.center, frame.n);
+        ray.skip = p.polygon;
+        for d in self.directions() {
+            ray.dir = frame.world_from_local(*d);
+            match caster.closest_hit(&ray, scratch) {
+                Some(h) if h.front => {
+                    buf.patch
+                        .push(polygons[h.polygon as usize].patch_at(h.u, h.v));
+                    buf.dist.push(h.t);
+                }
+                Some(h) => {
+                    buf.patch.push(BACK);
+                    buf.dist.push(h.t);
+                }
+                None => {
+                    buf.patch.push(ESCAPED);
+                    buf.dist.push(f32::INFINITY);
+                }
+            }
+        }
+    }
+
+    /// The row of `patch` from its item buffer.
+    pub fn row_from_items(
+        &self,
+        patch: PatchId,
+        buf: &ItemBuffer,
+        acc: &mut RowAccumulator,
+    ) -> Row {
+        let (mut back, mut escaped) = (0.0, 0.0);
+        let n_phi = self.n_phi();
+        for (ring, ff) in self.ring_form_factors().iter().enumerate() {
+            for &id in &buf.patch[ring * n_phi..(ring + 1) * n_phi] {
+                match id {
+                    ESCAPED => escaped += ff,
+                    BACK => back += ff,
+                    j => acc.add(j, *ff),
+                }
+            }
+        }
+        Row {
+            patch,
+            entries: acc.take(),
+            back,
+            escaped,
+        }
+    }
+}
+
+/// Rows of `patches`, computed in parallel (rayon's current pool); `progress(n)` is
+/// called after each row with the number of rows done so far. The result does not
+/// depend on the number of threads.
+pub fn compute_rows<C: RayCast>(
+    scene: &Scene,
+    caster: &C,
+    hemisphere: &Hemisphere,
+    patches: &[PatchId],
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Vec<Row>, Error> {
+    let n_patches = scene.patches().len();
+    if let Some(&bad) = patches.iter().find(|&&p| p as usize >= n_patches) {
+        return Err(Error::PatchOutOfRange {
+            patch: bad as u64,
+            n_patches,
+        });
+    }
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    Ok(patches
+        .par_iter()
+        .map_init(
+            || {
+                (
+                    caster.new_scratch(),
+                    ItemBuffer::default(),
+                    RowAccumulator::new(n_patches),
+                )
+            },
+            |(scratch, buf, acc), &p| {
+                hemisphere.cast(scene, caster, p, scratch, buf);
+                let row = hemisphere.row_from_items(p, buf, acc);
+                progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
+                row
+            },
+        )
+        .collect())
+}

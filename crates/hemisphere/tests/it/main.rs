@@ -1,0 +1,4 @@
+//! Integration tests of rad-hemisphere.
+
+mod analytic;
+mod props;
