@@ -1,8 +1,8 @@
 //! A uniform voxel grid over a scene's polygons, traversed by 3D-DDA.
 
-use crate::{Error, Mailbox};
-use glam::{UVec3, Vec3};
-use rad_core::{Hit, Ray, RayCast};
+use crate::Error;
+use glam::{IVec3, UVec3, Vec3};
+use rad_core::{Hit, PolygonId, Ray, RayCast};
 use rad_geometry::{Polygon, Scene};
 
 /// Largest number of voxels a grid may have.
@@ -24,17 +24,94 @@ pub struct VoxelGridConfig {
     pub resolution: GridResolution,
 }
 
+/// What an intersection reads of a polygon, packed in 64 bytes: the plane, the dual
+/// basis giving (u, v) (`u = p·du − du_off`), and the (u, v) bounds.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct PolyHot {
+    normal: Vec3,
+    plane_d: f32,
+    du: Vec3,
+    du_off: f32,
+    dv: Vec3,
+    dv_off: f32,
+    /// `[u_lo, u_hi, v_lo, v_hi]`, tolerance included.
+    uv_bounds: [f32; 4],
+}
+
+/// Per-thread working memory of a [`VoxelGrid`]: the mailbox, and the per-origin terms
+/// of every polygon for the origin last used by [`RayCast::closest_hits_from`].
+#[derive(Clone, Debug)]
+pub struct GridScratch {
+    /// Mailbox: the last ray that tested each polygon, or [`CULLED`].
+    stamps: Vec<u32>,
+    ray: u32,
+    /// Origin, own polygon and culling the `per_origin` terms were computed for.
+    origin: Option<(Vec3, PolygonId, bool)>,
+    /// For each polygon: (plane_d − n·o, (o − origin)·du, (o − origin)·dv).
+    per_origin: Vec<[f32; 3]>,
+    /// Polygons marked [`CULLED`] for the current origin.
+    culled: Vec<u32>,
+}
+
+/// Stamp of a polygon no ray from the current origin can hit: it counts as tested for
+/// every ray, since real stamps never exceed the current ray.
+const CULLED: u32 = u32::MAX;
+
+impl GridScratch {
+    #[inline]
+    fn next_ray(&mut self) {
+        self.ray += 1;
+        if self.ray == CULLED {
+            self.stamps.fill(0);
+            self.culled.clear();
+            self.origin = None;
+            self.ray = 1;
+        }
+    }
+
+    /// Marks `polygon` tested; false if it already was for this ray (mailboxing), or
+    /// if it is culled for this origin.
+    #[inline(always)]
+    fn first_visit(&mut self, polygon: u32) -> bool {
+        let s = &mut self.stamps[polygon as usize];
+        let first = *s < self.ray;
+        if first {
+            *s = self.ray;
+        }
+        first
+    }
+
+    /// Drops the per-origin state, before a query from another origin.
+    #[inline]
+    fn forget_origin(&mut self) {
+        if !self.culled.is_empty() {
+            self.uncull();
+        }
+        self.origin = None;
+    }
+
+    fn uncull(&mut self) {
+        for p in self.culled.drain(..) {
+            self.stamps[p as usize] = 0;
+        }
+    }
+}
+
 /// A uniform grid of half-open voxels over the scene's bounds, each listing the
 /// polygons that may cross it (a conservative plane–box test, padded by a few ulps).
 ///
 /// Queries walk the voxels a ray crosses in order (Amanatides and Woo), testing each
-/// polygon at most once per ray (a [`Mailbox`]). Ties in `t` go to the lower polygon id,
+/// polygon at most once per ray (mailboxing). Ties in `t` go to the lower polygon id,
 /// as in [`crate::BruteForce`].
 pub struct VoxelGrid<'s> {
     scene: &'s Scene,
+    hot: Vec<PolyHot>,
+    /// True for polygons whose inside test needs their edges (not parallelograms).
+    general: Vec<bool>,
     lo: Vec3,
     hi: Vec3,
-    dims: UVec3,
+    dims: IVec3,
     cell: Vec3,
     inv_cell: Vec3,
     /// CSR: polygons of voxel `k` are `items[start[k]..start[k+1]]`.
@@ -84,11 +161,10 @@ impl<'s> VoxelGrid<'s> {
         };
         let cell = ext / dims.as_vec3();
         let n_voxels = (dims.x * dims.y * dims.z) as usize;
-        // Count, then fill (CSR).
         let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n_voxels];
+        let eps = 1e-5 * diag;
         for (idx, poly) in scene.polygons().iter().enumerate() {
             let (plo, phi) = poly_bounds(poly);
-            let eps = 1e-5 * diag;
             let v0 = (((plo - lo - eps) / cell).floor().max(Vec3::ZERO))
                 .as_uvec3()
                 .min(dims - 1);
@@ -100,12 +176,10 @@ impl<'s> VoxelGrid<'s> {
             for z in v0.z..=v1.z {
                 for y in v0.y..=v1.y {
                     for x in v0.x..=v1.x {
-                        let vlo = lo + Vec3::new(x as f32, y as f32, z as f32) * cell;
-                        let centre = vlo + 0.5 * cell;
+                        let centre = lo + (Vec3::new(x as f32, y as f32, z as f32) + 0.5) * cell;
                         let half = 0.5 * cell + Vec3::splat(eps);
                         // Plane–box overlap: |n·c − d| ≤ Σ|n_k|·half_k.
-                        let r = n.abs().dot(half);
-                        if (n.dot(centre) - d).abs() <= r {
+                        if (n.dot(centre) - d).abs() <= n.abs().dot(half) {
                             lists[((z * dims.y + y) * dims.x + x) as usize].push(idx as u32);
                         }
                     }
@@ -119,11 +193,33 @@ impl<'s> VoxelGrid<'s> {
             items.extend_from_slice(l);
             start.push(items.len() as u32);
         }
+        let hot = scene
+            .polygons()
+            .iter()
+            .map(|p| {
+                let (du, dv) = p.dual_basis();
+                PolyHot {
+                    normal: p.normal(),
+                    plane_d: p.plane_offset(),
+                    du,
+                    du_off: p.origin().dot(du),
+                    dv,
+                    dv_off: p.origin().dot(dv),
+                    uv_bounds: p.uv_bounds(),
+                }
+            })
+            .collect();
         Ok(VoxelGrid {
             scene,
+            hot,
+            general: scene
+                .polygons()
+                .iter()
+                .map(|p| !p.is_parallelogram())
+                .collect(),
             lo,
             hi,
-            dims,
+            dims: dims.as_ivec3(),
             cell,
             inv_cell: Vec3::ONE / cell,
             start,
@@ -133,7 +229,7 @@ impl<'s> VoxelGrid<'s> {
 
     /// Voxels along x, y, z.
     pub fn dims(&self) -> [u32; 3] {
-        self.dims.to_array()
+        self.dims.as_uvec3().to_array()
     }
 
     /// Mean number of polygons listed per voxel.
@@ -141,80 +237,146 @@ impl<'s> VoxelGrid<'s> {
         self.items.len() as f64 / (self.start.len() - 1) as f64
     }
 
-    /// Walks the voxels along `ray`; calls `visit(polygons, t_exit)` for each in order
-    /// until it returns false or the ray leaves the grid or passes `t_max`.
+    /// Where a ray from `o` in direction `d` enters the grid (`t ≥ 0`), or None if it
+    /// misses the grid before `t_max`.
     #[inline(always)]
-    fn walk(&self, ray: &Ray, mut visit: impl FnMut(&[u32], f32) -> bool) {
-        let o = ray.origin;
-        let d = ray.dir;
+    fn entry(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<(Vec3, f32)> {
         let inv = Vec3::ONE / d;
-        // Slab test against the grid's box.
         let t0 = (self.lo - o) * inv;
         let t1 = (self.hi - o) * inv;
-        let tmin = t0.min(t1);
-        let tmax = t0.max(t1);
-        let t_enter = tmin.max_element().max(0.0);
-        let t_leave = tmax.min_element().min(ray.t_max);
-        if !(t_enter <= t_leave) {
-            return;
-        }
-        let p = o + d * t_enter;
-        let dims = self.dims.as_ivec3();
-        let mut v = ((p - self.lo) * self.inv_cell)
-            .floor()
+        let t_enter = t0.min(t1).max_element().max(0.0);
+        let t_leave = t0.max(t1).min_element().min(t_max);
+        (t_enter <= t_leave).then(|| (o + d * t_enter, t_enter))
+    }
+
+    /// The voxel containing point `p` (clamped into the grid).
+    #[inline(always)]
+    fn voxel_of(&self, p: Vec3) -> IVec3 {
+        ((p - self.lo) * self.inv_cell)
+            .max(Vec3::ZERO)
             .as_ivec3()
-            .clamp(glam::IVec3::ZERO, dims - 1);
-        let step = glam::IVec3::new(
-            if d.x >= 0.0 { 1 } else { -1 },
-            if d.y >= 0.0 { 1 } else { -1 },
-            if d.z >= 0.0 { 1 } else { -1 },
-        );
-        let next_boundary = |v: glam::IVec3| {
-            let b = (v + step.max(glam::IVec3::ZERO)).as_vec3();
-            self.lo + b * self.cell
-        };
+            .min(self.dims - 1)
+    }
+
+    /// Walks the voxels along `o + t·d` from voxel `v` (which must contain the ray's
+    /// point of entry); calls `visit(polygons, t_exit)` for each voxel in order until it
+    /// returns false, the ray leaves the grid, or a voxel ends past `t_max`.
+    #[inline(always)]
+    fn walk(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        v: IVec3,
+        t_max: f32,
+        mut visit: impl FnMut(&[u32], f32) -> bool,
+    ) {
+        let inv = Vec3::ONE / d;
+        let dims = self.dims;
+        let pos = d.cmpge(Vec3::ZERO);
+        let boundary =
+            self.lo + (v + IVec3::select(pos, IVec3::ONE, IVec3::ZERO)).as_vec3() * self.cell;
         // t at which the ray crosses the next boundary on each axis; inf if parallel.
-        let mut t_next = (next_boundary(v) - o) * inv;
-        let t_delta = (self.cell * inv).abs();
-        for k in 0..3 {
-            if d[k] == 0.0 {
-                t_next[k] = f32::INFINITY;
-            }
-        }
-        let (sx, sy, sz) = (dims.x, dims.x * dims.y, 1);
-        let _ = sz;
-        let mut idx = (v.z * sy + v.y * sx + v.x) as usize;
+        let zero = d.cmpeq(Vec3::ZERO);
+        let mut t_next = Vec3::select(zero, Vec3::INFINITY, (boundary - o) * inv).to_array();
+        let t_delta = Vec3::select(zero, Vec3::INFINITY, (self.cell * inv).abs());
+        // Voxel index and its strides; `left` counts the steps before leaving each axis.
+        let stride =
+            IVec3::select(pos, IVec3::ONE, IVec3::NEG_ONE) * IVec3::new(1, dims.x, dims.x * dims.y);
+        let mut left = IVec3::select(pos, dims - 1 - v, v).to_array();
+        let mut idx = (v.z * dims.y + v.y) * dims.x + v.x;
+        let (stride, t_delta) = (stride.to_array(), t_delta.to_array());
         loop {
-            let t_exit = t_next.min_element();
-            let polys = &self.items[self.start[idx] as usize..self.start[idx + 1] as usize];
-            if !visit(polys, t_exit) || t_exit >= t_leave {
+            let t_exit = t_next[0].min(t_next[1]).min(t_next[2]);
+            let (a, b) = (
+                self.start[idx as usize] as usize,
+                self.start[idx as usize + 1] as usize,
+            );
+            if !visit(&self.items[a..b], t_exit) || t_exit >= t_max {
                 return;
             }
-            // Step along the axis whose boundary comes first.
-            if t_next.x <= t_next.y && t_next.x <= t_next.z {
-                v.x += step.x;
-                if v.x < 0 || v.x >= dims.x {
-                    return;
-                }
-                idx = (idx as i32 + step.x) as usize;
-                t_next.x += t_delta.x;
-            } else if t_next.y <= t_next.z {
-                v.y += step.y;
-                if v.y < 0 || v.y >= dims.y {
-                    return;
-                }
-                idx = (idx as i32 + step.y * sx) as usize;
-                t_next.y += t_delta.y;
-            } else {
-                v.z += step.z;
-                if v.z < 0 || v.z >= dims.z {
-                    return;
-                }
-                idx = (idx as i32 + step.z * sy) as usize;
-                t_next.z += t_delta.z;
+            // Step along the axis whose boundary comes first (branch-free choice).
+            let a = usize::from(t_next[1] < t_next[0]);
+            let t_ab = if a == 1 { t_next[1] } else { t_next[0] };
+            let k = if t_next[2] < t_ab { 2 } else { a };
+            if left[k] == 0 {
+                return;
             }
+            left[k] -= 1;
+            idx += stride[k];
+            t_next[k] += t_delta[k];
         }
     }
+
+    /// Closest hit along `o + t·d`, `0 < t < t_max`, with the per-origin terms of the
+    /// polygons given by `terms(polygon)`.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn closest(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        start: IVec3,
+        t_max: f32,
+        skip: PolygonId,
+        scratch: &mut GridScratch,
+        terms: impl Fn(&GridScratch, &PolyHot, u32) -> [f32; 3],
+    ) -> Option<Hit> {
+        scratch.next_ray();
+        if let Some(s) = scratch.stamps.get_mut(skip as usize) {
+            *s = (*s).max(scratch.ray);
+        }
+        let polygons = self.scene.polygons();
+        // The best hit so far, as plain values so that updates compile to selects.
+        let (mut t_best, mut best_p, mut best_u, mut best_v) = (t_max, u32::MAX, 0.0f32, 0.0f32);
+        self.walk(o, d, start, t_max, |polys, t_exit| {
+            for &p in polys {
+                if !scratch.first_visit(p) {
+                    continue;
+                }
+                let h = &self.hot[p as usize];
+                let [num, u0, v0] = terms(scratch, h, p);
+                let t = num / h.normal.dot(d);
+                if !(t > 0.0 && t <= t_best) {
+                    continue;
+                }
+                // Ties with the best so far go to the lower polygon id.
+                if t == t_best && p > best_p {
+                    continue;
+                }
+                let u = u0 + t * h.du.dot(d);
+                let v = v0 + t * h.dv.dot(d);
+                let [u_lo, u_hi, v_lo, v_hi] = h.uv_bounds;
+                let in_box = u >= u_lo && u <= u_hi && v >= v_lo && v <= v_hi;
+                if in_box && (!self.general[p as usize] || polygons[p as usize].contains_uv(u, v)) {
+                    t_best = t;
+                    best_p = p;
+                    best_u = u;
+                    best_v = v;
+                }
+            }
+            t_best >= t_exit
+        });
+        (best_p != u32::MAX).then(|| {
+            let front = self.hot[best_p as usize].normal.dot(d) < 0.0;
+            Hit {
+                polygon: best_p,
+                u: best_u,
+                v: best_v,
+                t: t_best,
+                front,
+            }
+        })
+    }
+}
+
+/// Per-origin terms of polygon `h` for origin `o`: signed plane distance, (u, v) of `o`.
+#[inline(always)]
+fn origin_terms(h: &PolyHot, o: Vec3) -> [f32; 3] {
+    [
+        h.plane_d - h.normal.dot(o),
+        o.dot(h.du) - h.du_off,
+        o.dot(h.dv) - h.dv_off,
+    ]
 }
 
 fn poly_bounds(poly: &Polygon) -> (Vec3, Vec3) {
@@ -225,34 +387,108 @@ fn poly_bounds(poly: &Polygon) -> (Vec3, Vec3) {
 }
 
 impl RayCast for VoxelGrid<'_> {
-    type Scratch = Mailbox;
+    type Scratch = GridScratch;
 
-    fn new_scratch(&self) -> Mailbox {
-        Mailbox::new(self.scene.polygons().len())
+    fn new_scratch(&self) -> GridScratch {
+        let n = self.hot.len();
+        GridScratch {
+            stamps: vec![0; n],
+            ray: 0,
+            origin: None,
+            per_origin: vec![[0.0; 3]; n],
+            culled: Vec::new(),
+        }
     }
 
-    fn closest_hit(&self, ray: &Ray, mailbox: &mut Mailbox) -> Option<Hit> {
-        mailbox.next_ray();
-        let polygons = self.scene.polygons();
-        let mut best: Option<Hit> = None;
-        let mut t_best = ray.t_max;
-        self.walk(ray, |polys, t_exit| {
-            for &p in polys {
-                if p == ray.skip || !mailbox.first_visit(p) {
-                    continue;
+    fn closest_hit(&self, ray: &Ray, scratch: &mut GridScratch) -> Option<Hit> {
+        scratch.forget_origin();
+        let o = ray.origin;
+        let (p, _) = self.entry(o, ray.dir, ray.t_max)?;
+        let start = self.voxel_of(p);
+        self.closest(
+            o,
+            ray.dir,
+            start,
+            ray.t_max,
+            ray.skip,
+            scratch,
+            |_, h, _| origin_terms(h, o),
+        )
+    }
+
+    fn closest_hits_from(
+        &self,
+        origin: Vec3,
+        skip: PolygonId,
+        dirs: &[Vec3],
+        scratch: &mut GridScratch,
+        out: &mut Vec<Option<Hit>>,
+    ) {
+        // Polygons wholly behind the plane of `skip` through `origin` cannot be hit by
+        // rays that leave that plane forwards (a hemisphere's): cull them for all rays.
+        let own = self.scene.polygons().get(skip as usize).map(|p| p.normal());
+        let cull = own.is_some_and(|n| dirs.iter().all(|d| d.dot(n) > 0.0));
+        if scratch.origin != Some((origin, skip, cull)) {
+            scratch.uncull();
+            for (t, h) in scratch.per_origin.iter_mut().zip(&self.hot) {
+                *t = origin_terms(h, origin);
+            }
+            if let (true, Some(n)) = (cull, own) {
+                let (o, n) = (origin.as_dvec3(), n.as_dvec3());
+                for (p, poly) in self.scene.polygons().iter().enumerate() {
+                    if poly
+                        .vertices()
+                        .iter()
+                        .all(|v| (v.as_dvec3() - o).dot(n) <= 0.0)
+                    {
+                        scratch.stamps[p] = CULLED;
+                        scratch.culled.push(p as u32);
+                    }
                 }
-                // `t_best` is exclusive; ties go to the lower id, so test `<=` there.
-                let limit = if best.is_some_and(|b| p < b.polygon) {
-                    next_up(t_best)
-                } else {
-                    t_best
-                };
-                if let Some((t, u, v, front)) =
-                    polygons[p as usize].intersect(ray.origin, ray.dir, limit)
-                {
-                    if t < t_best || best.is_some_and(|b| p < b.polygon) {
-                        t_best = t;
-                        best = Some(Hit {
+            }
+            scratch.origin = Some((origin, skip, cull));
+        }
+        out.clear();
+        if !(origin.cmpge(self.lo).all() && origin.cmplt(self.hi).all()) {
+            // Outside the grid: no shared start voxel.
+            let mut ray = Ray::new(origin, Vec3::Z);
+            ray.skip = skip;
+            out.extend(
+                dirs.iter()
+                    .map(|&d| self.closest_hit(&Ray { dir: d, ..ray }, scratch)),
+            );
+            return;
+        }
+        let start = self.voxel_of(origin);
+        out.extend(dirs.iter().map(|&d| {
+            self.closest(origin, d, start, f32::INFINITY, skip, scratch, |s, _, p| {
+                s.per_origin[p as usize]
+            })
+        }));
+    }
+
+    fn all_hits(&self, ray: &Ray, scratch: &mut GridScratch, out: &mut Vec<Hit>) {
+        scratch.forget_origin();
+        scratch.next_ray();
+        out.clear();
+        let polygons = self.scene.polygons();
+        let Some((p, _)) = self.entry(ray.origin, ray.dir, ray.t_max) else {
+            return;
+        };
+        self.walk(
+            ray.origin,
+            ray.dir,
+            self.voxel_of(p),
+            ray.t_max,
+            |polys, _| {
+                for &p in polys {
+                    if p == ray.skip || !scratch.first_visit(p) {
+                        continue;
+                    }
+                    if let Some((t, u, v, front)) =
+                        polygons[p as usize].intersect(ray.origin, ray.dir, ray.t_max)
+                    {
+                        out.push(Hit {
                             polygon: p,
                             u,
                             v,
@@ -261,48 +497,9 @@ impl RayCast for VoxelGrid<'_> {
                         });
                     }
                 }
-            }
-            t_best >= t_exit
-        });
-        best
-    }
-
-    fn all_hits(&self, ray: &Ray, mailbox: &mut Mailbox, out: &mut Vec<Hit>) {
-        mailbox.next_ray();
-        out.clear();
-        let polygons = self.scene.polygons();
-        self.walk(ray, |polys, _| {
-            for &p in polys {
-                if p == ray.skip || !mailbox.first_visit(p) {
-                    continue;
-                }
-                if let Some((t, u, v, front)) =
-                    polygons[p as usize].intersect(ray.origin, ray.dir, ray.t_max)
-                {
-                    out.push(Hit {
-                        polygon: p,
-                        u,
-                        v,
-                        t,
-                        front,
-                    });
-                }
-            }
-            true
-        });
+                true
+            },
+        );
         out.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.polygon.cmp(&b.polygon)));
-    }
-}
-
-/// The next f32 above a finite `x` (identity for infinities).
-fn next_up(x: f32) -> f32 {
-    if x.is_finite() {
-        f32::from_bits(if x >= 0.0 {
-            x.to_bits() + 1
-        } else {
-            x.to_bits() - 1
-        })
-    } else {
-        x
     }
 }

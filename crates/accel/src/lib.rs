@@ -7,7 +7,7 @@ mod grid;
 mod mailbox;
 
 pub use brute::BruteForce;
-pub use grid::{GridResolution, VoxelGrid, VoxelGridConfig, MAX_VOXELS};
+pub use grid::{GridResolution, GridScratch, VoxelGrid, VoxelGridConfig, MAX_VOXELS};
 pub use mailbox::Mailbox;
 
 /// Errors from building an accelerator.

@@ -62,4 +62,26 @@ pub trait RayCast: Sync {
     /// Every polygon the ray crosses with `0 < t < ray.t_max`, sorted by `t`, appended to
     /// `out` after clearing it. Each polygon appears once.
     fn all_hits(&self, ray: &Ray, scratch: &mut Self::Scratch, out: &mut Vec<Hit>);
+
+    /// The closest hit of each ray `origin + t·dirs[k]` (unit directions, `t_max`
+    /// infinite, never hitting `skip`), written to `out[k]` after clearing `out`.
+    ///
+    /// The same answers as [`RayCast::closest_hit`] ray by ray; a hemisphere's rays share
+    /// their origin, and an accelerator may share work between them.
+    fn closest_hits_from(
+        &self,
+        origin: Vec3,
+        skip: PolygonId,
+        dirs: &[Vec3],
+        scratch: &mut Self::Scratch,
+        out: &mut Vec<Option<Hit>>,
+    ) {
+        out.clear();
+        let mut ray = Ray::new(origin, Vec3::Z);
+        ray.skip = skip;
+        for &d in dirs {
+            ray.dir = d;
+            out.push(self.closest_hit(&ray, scratch));
+        }
+    }
 }

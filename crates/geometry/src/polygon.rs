@@ -291,14 +291,55 @@ impl Polygon {
         let r = o + d * t - self.origin;
         let u = r.dot(self.du);
         let v = r.dot(self.dv);
-        let inside = if self.parallelogram {
+        self.contains_uv(u, v).then_some((t, u, v, denom < 0.0))
+    }
+
+    /// True when parameters (u, v) lie inside the polygon, or within a few ulps of the
+    /// scene's scale outside it (so that polygons sharing an edge leave no crack).
+    #[inline]
+    pub fn contains_uv(&self, u: f32, v: f32) -> bool {
+        if self.parallelogram {
             u >= -self.eps_u && v >= -self.eps_v && u <= 1.0 + self.eps_u && v <= 1.0 + self.eps_v
         } else {
             self.edges
                 .iter()
                 .all(|e| e[0] * u + e[1] * v + e[2] >= -self.eps)
-        };
-        inside.then_some((t, u, v, denom < 0.0))
+        }
+    }
+
+    /// Dual basis of (e_u, e_v) in the plane: `u = (p − origin)·du`, `v = (p − origin)·dv`.
+    pub fn dual_basis(&self) -> (Vec3, Vec3) {
+        (self.du, self.dv)
+    }
+
+    /// Bounds `[u_lo, u_hi, v_lo, v_hi]` of the polygon in (u, v), widened by the
+    /// tolerance of [`Polygon::contains_uv`]: for a parallelogram, being inside them is
+    /// being inside the polygon.
+    pub fn uv_bounds(&self) -> [f32; 4] {
+        let (mut b0, mut b1, mut b2, mut b3) = (
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        );
+        for [u, v] in &self.uv_vertices {
+            (b0, b1, b2, b3) = (b0.min(*u), b1.max(*u), b2.min(*v), b3.max(*v));
+        }
+        let (eu, ev) = (self.eps_u as f64, self.eps_v as f64);
+        if self.parallelogram {
+            (b0, b1, b2, b3) = (0.0, 1.0, 0.0, 1.0);
+        }
+        [
+            (b0 - eu) as f32,
+            (b1 + eu) as f32,
+            (b2 - ev) as f32,
+            (b3 + ev) as f32,
+        ]
+    }
+
+    /// Plane offset `d` with the plane `normal · p = d`.
+    pub fn plane_offset(&self) -> f32 {
+        self.plane_d
     }
 
     /// The patch containing parameters (u, v); (u, v) slightly outside [0, 1]² is clamped.

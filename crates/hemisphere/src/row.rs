@@ -1,7 +1,7 @@
 //! Item buffers (what each cell sees) and sparse form-factor rows.
 
 use crate::{Error, Hemisphere};
-use rad_core::{PatchId, Ray, RayCast};
+use rad_core::{PatchId, RayCast};
 use rad_geometry::Scene;
 use rayon::prelude::*;
 
@@ -98,24 +98,21 @@ impl Hemisphere {
         buf.dist.clear();
         buf.patch.reserve(self.n_cells());
         buf.dist.reserve(self.n_cells());
-        let mut ray = Ray::new(p.center, frame.n);
-        ray.skip = p.polygon;
-        for d in self.directions() {
-            ray.dir = frame.world_from_local(*d);
-            match caster.closest_hit(&ray, scratch) {
-                Some(h) if h.front => {
-                    buf.patch
-                        .push(polygons[h.polygon as usize].patch_at(h.u, h.v));
-                    buf.dist.push(h.t);
-                }
-                Some(h) => {
-                    buf.patch.push(BACK);
-                    buf.dist.push(h.t);
-                }
-                None => {
-                    buf.patch.push(ESCAPED);
-                    buf.dist.push(f32::INFINITY);
-                }
+        // One ring at a time: directions to world space, then the rays.
+        let mut dirs = Vec::with_capacity(self.n_phi());
+        let mut hits = Vec::with_capacity(self.n_phi());
+        for ring in self.directions().chunks(self.n_phi()) {
+            dirs.clear();
+            dirs.extend(ring.iter().map(|d| frame.world_from_local(*d)));
+            caster.closest_hits_from(p.center, p.polygon, &dirs, scratch, &mut hits);
+            for hit in &hits {
+                let (id, dist) = match hit {
+                    Some(h) if h.front => (polygons[h.polygon as usize].patch_at(h.u, h.v), h.t),
+                    Some(h) => (BACK, h.t),
+                    None => (ESCAPED, f32::INFINITY),
+                };
+                buf.patch.push(id);
+                buf.dist.push(dist);
             }
         }
     }

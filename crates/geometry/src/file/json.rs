@@ -129,14 +129,16 @@ pub fn scene_desc_from_json(
                         })
                 })
                 .collect::<Result<_, _>>()?,
-            _ => return Err(Error::Json {
-                path: Default::default(),
-                line: 0,
-                column: 0,
-                message: format!(
+            _ => {
+                return Err(Error::Json {
+                    path: Default::default(),
+                    line: 0,
+                    column: 0,
+                    message: format!(
                     "polygon {idx} ({name:?}) must give exactly one of \"vertices\" or \"indices\""
                 ),
-            }),
+                })
+            }
         };
         let grid = match (p.patches, p.patch_size.or(file.patch_size).or(default_patch_size)) {
             (Some([nu, nv]), _) => PatchGrid::Cells { nu, nv },

@@ -1,0 +1,3 @@
+//! Integration tests of rad-accel.
+
+mod props;
