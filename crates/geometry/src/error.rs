@@ -25,7 +25,7 @@ pub enum PolygonProblem {
     ZeroPatchGrid { nu: u64, nv: u64 },
     #[error("has a patch grid of {nu} x {nv}, over the limit of {limit} cells a polygon")]
     PatchGridTooLarge { nu: u64, nv: u64, limit: u64 },
-    #[error("has a target patch size of {size}; it must be finite and > 0")]
+    #[error("has no usable target patch size ({size}); give a finite size > 0 (--patch-size for OBJ files)")]
     BadPatchSize { size: f64 },
     #[error("names material {name:?}, which the scene does not define")]
     UnknownMaterial { name: String },

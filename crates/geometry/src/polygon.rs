@@ -35,6 +35,8 @@ pub struct Polygon {
     edges: Vec<[f32; 3]>,
     nu: u32,
     nv: u32,
+    /// Cell of (u, v): `i = ⌊(u − grid_map[0])·grid_map[1]⌋`, `j` likewise with [2], [3].
+    grid_map: [f32; 4],
     first_patch: PatchId,
     /// Patch of each cell (`j·nu + i`); a cell with no area holds its nearest patch of
     /// the same row (or of the nearest non-empty row), so lookups are total.
@@ -191,7 +193,17 @@ impl Polygon {
 
         // Patch texture.
         let (nu32, nv32) = (nu as u32, nv as u32);
-        let cell_full = 1.0 / (nu as f64 * nv as f64);
+        // The grid spans the polygon's (u, v) bounding box: [0, 1]² for a parallelogram
+        // (or any polygon whose vertices lie in it), wider for e.g. a trapezoid.
+        let mut uv_box = [0.0f64, 1.0, 0.0, 1.0];
+        for [u, v] in &uv_vertices {
+            uv_box = [uv_box[0].min(*u), uv_box[1].max(*u), uv_box[2].min(*v), uv_box[3].max(*v)];
+        }
+        if parallelogram {
+            uv_box = [0.0, 1.0, 0.0, 1.0];
+        }
+        let (cu, cv) = ((uv_box[1] - uv_box[0]) / nu as f64, (uv_box[3] - uv_box[2]) / nv as f64);
+        let cell_full = cu * cv;
         let mut cell_patch = vec![PatchId::MAX; (nu * nv) as usize];
         let mut patches = Vec::new();
         let normal_f = normal.as_vec3();
@@ -199,8 +211,8 @@ impl Polygon {
         let mut shapes: Vec<Option<Vec<[f64; 2]>>> = vec![None; (nu * nv) as usize];
         for j in 0..nv32 {
             for i in 0..nu32 {
-                let (u0, u1) = (i as f64 / nu as f64, (i + 1) as f64 / nu as f64);
-                let (v0, v1) = (j as f64 / nv as f64, (j + 1) as f64 / nv as f64);
+                let (u0, u1) = (uv_box[0] + i as f64 * cu, uv_box[0] + (i + 1) as f64 * cu);
+                let (v0, v1) = (uv_box[2] + j as f64 * cv, uv_box[2] + (j + 1) as f64 * cv);
                 let square = vec![[u0, v0], [u1, v0], [u1, v1], [u0, v1]];
                 let cell = if parallelogram {
                     square
@@ -260,6 +272,7 @@ impl Polygon {
             edges,
             nu: nu32,
             nv: nv32,
+            grid_map: [uv_box[0] as f32, (1.0 / cu) as f32, uv_box[2] as f32, (1.0 / cv) as f32],
             first_patch,
             cell_patch,
             name,
@@ -342,11 +355,12 @@ impl Polygon {
         self.plane_d
     }
 
-    /// The patch containing parameters (u, v); (u, v) slightly outside [0, 1]² is clamped.
+    /// The patch containing parameters (u, v): O(1), through the patch texture, whose
+    /// `nu × nv` cells span the polygon's (u, v) bounding box. Points slightly outside
+    /// are clamped to the nearest cell.
     #[inline]
     pub fn patch_at(&self, u: f32, v: f32) -> PatchId {
-        let i = ((u * self.nu as f32) as i32).clamp(0, self.nu as i32 - 1) as u32;
-        let j = ((v * self.nv as f32) as i32).clamp(0, self.nv as i32 - 1) as u32;
+        let (i, j) = self.cell_at(u, v);
         self.cell_patch[(j * self.nu + i) as usize]
     }
 
@@ -385,6 +399,13 @@ impl Polygon {
     /// Patch-texture size (nu, nv).
     pub fn grid(&self) -> (u32, u32) {
         (self.nu, self.nv)
+    }
+    /// Cell (i, j) of parameters (u, v), clamped to the grid.
+    pub fn cell_at(&self, u: f32, v: f32) -> (u32, u32) {
+        let [u0, su, v0, sv] = self.grid_map;
+        let i = (((u - u0) * su) as i32).clamp(0, self.nu as i32 - 1) as u32;
+        let j = (((v - v0) * sv) as i32).clamp(0, self.nv as i32 - 1) as u32;
+        (i, j)
     }
     pub fn first_patch(&self) -> PatchId {
         self.first_patch
