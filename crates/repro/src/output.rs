@@ -1,0 +1,130 @@
+//! Writers: files written atomically (never a partial file), and the JSON of patches
+//! and form-factor rows that the `coherad` binary prints.
+
+use crate::Error;
+use rad_geometry::Scene;
+use rad_hemisphere::Row;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// Writes `path` through `fill`, all or nothing: the bytes go to a temporary file in
+/// the same directory, which is renamed over `path` only once `fill` has succeeded and
+/// the data are flushed. On any error the temporary file is removed and `path` is left
+/// as it was.
+pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<(), Error> {
+    let err = |source| Error::Write { path: path.to_path_buf(), source };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = path.file_name().ok_or_else(|| err(std::io::Error::other("not a file name")))?;
+    let tmp = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
+    let result = (|| {
+        let file = std::fs::File::create(&tmp)?;
+        let mut w = BufWriter::new(file);
+        fill(&mut w)?;
+        let file = w.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(err(e));
+    }
+    Ok(())
+}
+
+fn arr3(v: glam::Vec3) -> [f32; 3] {
+    v.to_array()
+}
+
+/// `{"patches":[{"id","polygon","center","normal","corners","area"}]}`; corners are
+/// counter-clockwise seen from the side the normal points to.
+pub fn write_patches_json(w: &mut dyn Write, scene: &Scene) -> std::io::Result<()> {
+    #[derive(serde::Serialize)]
+    struct P<'a> {
+        id: usize,
+        polygon: u32,
+        polygon_name: &'a str,
+        cell: [u32; 2],
+        center: [f32; 3],
+        normal: [f32; 3],
+        corners: Vec<[f32; 3]>,
+        area: f64,
+        on_boundary: bool,
+    }
+    w.write_all(b"{\"patches\":[\n")?;
+    for (id, p) in scene.patches().iter().enumerate() {
+        if id > 0 {
+            w.write_all(b",\n")?;
+        }
+        let rec = P {
+            id,
+            polygon: p.polygon,
+            polygon_name: scene.polygons()[p.polygon as usize].name(),
+            cell: p.cell,
+            center: arr3(p.center),
+            normal: arr3(p.normal),
+            corners: p.corners.iter().copied().map(arr3).collect(),
+            area: p.area,
+            on_boundary: p.on_boundary,
+        };
+        serde_json::to_writer(&mut *w, &rec)?;
+    }
+    w.write_all(b"\n]}\n")
+}
+
+/// Header of a form-factor file; rows follow with [`write_row_json`], then
+/// [`write_rows_footer`].
+pub fn write_rows_header(w: &mut dyn Write, resolution: (u32, u32), method: &str, n_patches: usize) -> std::io::Result<()> {
+    write!(
+        w,
+        "{{\"resolution\":[{},{}],\"method\":{},\"n_patches\":{},\"rows\":[\n",
+        resolution.0,
+        resolution.1,
+        serde_json::to_string(method).expect("a string serialises"),
+        n_patches
+    )
+}
+
+/// One row: `{"patch":p,"entries":[[j,F],...],"back":b,"escaped":e}`; `first` is true
+/// for the first row of the file.
+pub fn write_row_json(w: &mut dyn Write, row: &Row, first: bool) -> std::io::Result<()> {
+    #[derive(serde::Serialize)]
+    struct R<'a> {
+        patch: u32,
+        entries: &'a [(u32, f64)],
+        back: f64,
+        escaped: f64,
+    }
+    if !first {
+        w.write_all(b",\n")?;
+    }
+    serde_json::to_writer(&mut *w, &R { patch: row.patch, entries: &row.entries, back: row.back, escaped: row.escaped })?;
+    Ok(())
+}
+
+pub fn write_rows_footer(w: &mut dyn Write) -> std::io::Result<()> {
+    w.write_all(b"\n]}\n")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn failed_writes_leave_no_file_and_keep_the_old_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.json");
+        let e = write_atomic(&path, |w| {
+            w.write_all(b"partial")?;
+            Err(std::io::Error::other("boom"))
+        });
+        assert!(e.is_err());
+        assert!(!path.exists());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "temporary file left behind");
+        write_atomic(&path, |w| w.write_all(b"old")).unwrap();
+        let _ = write_atomic(&path, |_| Err(std::io::Error::other("boom")));
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "old");
+    }
+}

@@ -1,0 +1,79 @@
+//! `reproduce` and `scenes`: run the experiments, write results and scene files.
+
+use anyhow::{Context, Result};
+use rad_geometry::file::scene_desc_to_json;
+use rad_geometry::scenes::{cornell_box, cube, loft};
+use rad_geometry::Scene;
+use rad_repro::output::write_atomic;
+use rad_repro::Provenance;
+use std::path::Path;
+use std::time::Instant;
+
+/// Patch size of the Cornell box scene file, millimetres.
+pub const CORNELL_PATCH_MM: f32 = 40.0;
+
+pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let t = Instant::now();
+    let provenance = Provenance {
+        git_revision: git_revision(root),
+        cpu_model: cpu_model(),
+        nproc: std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+        threads: rayon::current_num_threads(),
+        profile: if cfg!(debug_assertions) { "debug".into() } else { "release".into() },
+        command: format!("cargo xtask {}", args.join(" ")),
+    };
+    eprintln!("coherad reproduce{}: writing to {}", if quick { " --quick" } else { "" }, out.display());
+    let progress = |stage: &str, step: usize, of: usize| {
+        eprintln!("  {stage}: {step}/{of} ({:.1} s)", t.elapsed().as_secs_f64());
+    };
+    let r = rad_repro::reproduce::run(quick, &progress).context("the reproduction failed")?;
+    let wall = t.elapsed().as_secs_f64();
+    let write = |name: &str, text: String| -> Result<()> {
+        let path = out.join(name);
+        write_atomic(&path, |w| w.write_all(text.as_bytes())).with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("  wrote {}", path.display());
+        Ok(())
+    };
+    write("cube_accuracy.json", r.cube_json(&provenance))?;
+    write("loft_checks.json", r.loft_json(&provenance))?;
+    write("REPORT.md", r.report(&provenance, wall))?;
+    eprintln!("done in {wall:.1} s");
+    Ok(())
+}
+
+/// Rewrites the bench-scene files from their builders.
+pub fn write_scenes(out: &Path) -> Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let scenes = [
+        ("cube.json", cube(10), "The report's empty cube: unit size, six inward faces, 10 x 10 patches each (rad_geometry::scenes::cube)."),
+        ("loft.json", loft(), "Our loft-like interior to the report's counts, 185 polygons and 14,400 patches (rad_geometry::scenes::loft); the report never published its loft."),
+        ("cornell.json", cornell_box(CORNELL_PATCH_MM), "The Cornell box from its published geometry, in mm (rad_geometry::scenes::cornell_box); RGB reflectances from Bitterli's cornell-box resource."),
+    ];
+    for (name, desc, about) in scenes {
+        Scene::new(desc.clone()).with_context(|| format!("the {name} builder makes an invalid scene"))?;
+        let text = scene_desc_to_json(&desc, Some(about));
+        let path = out.join(name);
+        write_atomic(&path, |w| w.write_all(text.as_bytes())).with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn git_revision(root: &Path) -> String {
+    std::process::Command::new("git")
+        .args(["rev-parse", "--short=12", "HEAD"])
+        .current_dir(root)
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_else(|| "unknown".into())
+}
+
+fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| s.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split_once(':')).map(|(_, v)| v.trim().to_string()))
+        .unwrap_or_else(|| "unknown".into())
+}
