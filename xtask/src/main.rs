@@ -13,7 +13,9 @@ fn usage() -> &'static str {
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let Some(cmd) = args.first() else { bail!("{}", usage()) };
+    let Some(cmd) = args.first() else {
+        bail!("{}", usage())
+    };
     let mut quick = false;
     let mut out: Option<PathBuf> = None;
     let mut threads: Option<usize> = None;
@@ -23,7 +25,11 @@ fn main() -> Result<()> {
             "--quick" => quick = true,
             "--out" => out = Some(rest.next().context("--out needs a directory")?.into()),
             "--threads" => {
-                let n: usize = rest.next().context("--threads needs a count")?.parse().context("--threads needs a count")?;
+                let n: usize = rest
+                    .next()
+                    .context("--threads needs a count")?
+                    .parse()
+                    .context("--threads needs a count")?;
                 if n == 0 {
                     bail!("--threads must be at least 1");
                 }
@@ -37,12 +43,19 @@ fn main() -> Result<()> {
         }
     }
     if let Some(n) = threads {
-        rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("cannot start the thread pool")?;
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .context("cannot start the thread pool")?;
     }
     let root = workspace_root();
     match cmd.as_str() {
         "reproduce" => {
-            let default = if quick { root.join("target").join("repro-quick") } else { root.join("results") };
+            let default = if quick {
+                root.join("target").join("repro-quick")
+            } else {
+                root.join("results")
+            };
             reproduce::reproduce(quick, &out.unwrap_or(default), &root, &args)
         }
         "scenes" => reproduce::write_scenes(&out.unwrap_or(root.join("bench-scenes"))),
@@ -52,5 +65,8 @@ fn main() -> Result<()> {
 
 /// The workspace root: xtask's manifest directory's parent.
 fn workspace_root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).parent().expect("xtask lives in the workspace").to_path_buf()
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("xtask lives in the workspace")
+        .to_path_buf()
 }

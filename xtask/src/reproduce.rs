@@ -18,20 +18,34 @@ pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Resul
     let provenance = Provenance {
         git_revision: git_revision(root),
         cpu_model: cpu_model(),
-        nproc: std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+        nproc: std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1),
         threads: rayon::current_num_threads(),
-        profile: if cfg!(debug_assertions) { "debug".into() } else { "release".into() },
+        profile: if cfg!(debug_assertions) {
+            "debug".into()
+        } else {
+            "release".into()
+        },
         command: format!("cargo xtask {}", args.join(" ")),
     };
-    eprintln!("coherad reproduce{}: writing to {}", if quick { " --quick" } else { "" }, out.display());
+    eprintln!(
+        "coherad reproduce{}: writing to {}",
+        if quick { " --quick" } else { "" },
+        out.display()
+    );
     let progress = |stage: &str, step: usize, of: usize| {
-        eprintln!("  {stage}: {step}/{of} ({:.1} s)", t.elapsed().as_secs_f64());
+        eprintln!(
+            "  {stage}: {step}/{of} ({:.1} s)",
+            t.elapsed().as_secs_f64()
+        );
     };
     let r = rad_repro::reproduce::run(quick, &progress).context("the reproduction failed")?;
     let wall = t.elapsed().as_secs_f64();
     let write = |name: &str, text: String| -> Result<()> {
         let path = out.join(name);
-        write_atomic(&path, |w| w.write_all(text.as_bytes())).with_context(|| format!("writing {}", path.display()))?;
+        write_atomic(&path, |w| w.write_all(text.as_bytes()))
+            .with_context(|| format!("writing {}", path.display()))?;
         eprintln!("  wrote {}", path.display());
         Ok(())
     };
@@ -51,10 +65,12 @@ pub fn write_scenes(out: &Path) -> Result<()> {
         ("cornell.json", cornell_box(CORNELL_PATCH_MM), "The Cornell box from its published geometry, in mm (rad_geometry::scenes::cornell_box); RGB reflectances from Bitterli's cornell-box resource."),
     ];
     for (name, desc, about) in scenes {
-        Scene::new(desc.clone()).with_context(|| format!("the {name} builder makes an invalid scene"))?;
+        Scene::new(desc.clone())
+            .with_context(|| format!("the {name} builder makes an invalid scene"))?;
         let text = scene_desc_to_json(&desc, Some(about));
         let path = out.join(name);
-        write_atomic(&path, |w| w.write_all(text.as_bytes())).with_context(|| format!("writing {}", path.display()))?;
+        write_atomic(&path, |w| w.write_all(text.as_bytes()))
+            .with_context(|| format!("writing {}", path.display()))?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())
@@ -74,6 +90,11 @@ fn git_revision(root: &Path) -> String {
 fn cpu_model() -> String {
     std::fs::read_to_string("/proc/cpuinfo")
         .ok()
-        .and_then(|s| s.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split_once(':')).map(|(_, v)| v.trim().to_string()))
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
         .unwrap_or_else(|| "unknown".into())
 }

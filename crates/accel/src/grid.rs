@@ -48,8 +48,8 @@ pub struct GridScratch {
     ray: u32,
     /// Origin, own polygon and culling the `per_origin` terms were computed for.
     origin: Option<(Vec3, PolygonId, bool)>,
-    /// For each polygon: (plane_d − n·o, (o − origin)·du, (o − origin)·dv).
-    per_origin: Vec<[f32; 3]>,
+    /// Each polygon's intersection terms for that origin.
+    per_origin: Vec<OriginView>,
     /// Polygons marked [`CULLED`] for the current origin.
     culled: Vec<u32>,
 }
@@ -307,8 +307,8 @@ impl<'s> VoxelGrid<'s> {
         }
     }
 
-    /// Closest hit along `o + t·d`, `0 < t < t_max`, with the per-origin terms of the
-    /// polygons given by `terms(polygon)`.
+    /// Closest hit along `o + t·d`, `0 < t < t_max`, from voxel `start`, with each
+    /// polygon's terms for this origin given by `view(polygon)`.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn closest(
@@ -319,35 +319,39 @@ impl<'s> VoxelGrid<'s> {
         t_max: f32,
         skip: PolygonId,
         scratch: &mut GridScratch,
-        terms: impl Fn(&GridScratch, &PolyHot, u32) -> [f32; 3],
+        view: impl Fn(&GridScratch, u32) -> OriginView,
     ) -> Option<Hit> {
         scratch.next_ray();
         if let Some(s) = scratch.stamps.get_mut(skip as usize) {
             *s = (*s).max(scratch.ray);
         }
         let polygons = self.scene.polygons();
-        // The best hit so far, as plain values so that updates compile to selects.
         let (mut t_best, mut best_p, mut best_u, mut best_v) = (t_max, u32::MAX, 0.0f32, 0.0f32);
         self.walk(o, d, start, t_max, |polys, t_exit| {
             for &p in polys {
                 if !scratch.first_visit(p) {
                     continue;
                 }
-                let h = &self.hot[p as usize];
-                let [num, u0, v0] = terms(scratch, h, p);
-                let t = num / h.normal.dot(d);
-                if !(t > 0.0 && t <= t_best) {
-                    continue;
-                }
+                let h = view(scratch, p);
+                let denom = h.normal.dot(d);
+                let t = h.num / denom;
                 // Ties with the best so far go to the lower polygon id.
-                if t == t_best && p > best_p {
+                if !(t > 0.0 && (t < t_best || (t == t_best && p < best_p))) {
                     continue;
                 }
-                let u = u0 + t * h.du.dot(d);
-                let v = v0 + t * h.dv.dot(d);
+                let u = h.u0 + t * h.du.dot(d);
+                let v = h.v0 + t * h.dv.dot(d);
                 let [u_lo, u_hi, v_lo, v_hi] = h.uv_bounds;
-                let in_box = u >= u_lo && u <= u_hi && v >= v_lo && v <= v_hi;
-                if in_box && (!self.general[p as usize] || polygons[p as usize].contains_uv(u, v)) {
+                if !((u >= u_lo) & (u <= u_hi) & (v >= v_lo) & (v <= v_hi)) {
+                    continue;
+                }
+                // Back faces (rare) take the shrunk inside test, as in `Polygon::intersect`.
+                let inside = if denom < 0.0 {
+                    !self.general[p as usize] || polygons[p as usize].contains_uv(u, v)
+                } else {
+                    polygons[p as usize].contains_uv_back(u, v)
+                };
+                if inside {
                     t_best = t;
                     best_p = p;
                     best_u = u;
@@ -369,14 +373,33 @@ impl<'s> VoxelGrid<'s> {
     }
 }
 
-/// Per-origin terms of polygon `h` for origin `o`: signed plane distance, (u, v) of `o`.
-#[inline(always)]
-fn origin_terms(h: &PolyHot, o: Vec3) -> [f32; 3] {
-    [
-        h.plane_d - h.normal.dot(o),
-        o.dot(h.du) - h.du_off,
-        o.dot(h.dv) - h.dv_off,
-    ]
+/// A polygon's intersection terms for one origin `o`, packed in 64 bytes: the plane
+/// (`num = d_plane − n·o`, so `t = num / n·dir`), (u, v) of `o`, and the (u, v) bounds.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
+pub(crate) struct OriginView {
+    normal: Vec3,
+    num: f32,
+    du: Vec3,
+    u0: f32,
+    dv: Vec3,
+    v0: f32,
+    uv_bounds: [f32; 4],
+}
+
+impl OriginView {
+    #[inline(always)]
+    fn new(h: &PolyHot, o: Vec3) -> OriginView {
+        OriginView {
+            normal: h.normal,
+            num: h.plane_d - h.normal.dot(o),
+            du: h.du,
+            u0: o.dot(h.du) - h.du_off,
+            dv: h.dv,
+            v0: o.dot(h.dv) - h.dv_off,
+            uv_bounds: h.uv_bounds,
+        }
+    }
 }
 
 fn poly_bounds(poly: &Polygon) -> (Vec3, Vec3) {
@@ -395,7 +418,7 @@ impl RayCast for VoxelGrid<'_> {
             stamps: vec![0; n],
             ray: 0,
             origin: None,
-            per_origin: vec![[0.0; 3]; n],
+            per_origin: vec![OriginView::default(); n],
             culled: Vec::new(),
         }
     }
@@ -405,15 +428,9 @@ impl RayCast for VoxelGrid<'_> {
         let o = ray.origin;
         let (p, _) = self.entry(o, ray.dir, ray.t_max)?;
         let start = self.voxel_of(p);
-        self.closest(
-            o,
-            ray.dir,
-            start,
-            ray.t_max,
-            ray.skip,
-            scratch,
-            |_, h, _| origin_terms(h, o),
-        )
+        self.closest(o, ray.dir, start, ray.t_max, ray.skip, scratch, |_, p| {
+            OriginView::new(&self.hot[p as usize], o)
+        })
     }
 
     fn closest_hits_from(
@@ -431,7 +448,7 @@ impl RayCast for VoxelGrid<'_> {
         if scratch.origin != Some((origin, skip, cull)) {
             scratch.uncull();
             for (t, h) in scratch.per_origin.iter_mut().zip(&self.hot) {
-                *t = origin_terms(h, origin);
+                *t = OriginView::new(h, origin);
             }
             if let (true, Some(n)) = (cull, own) {
                 let (o, n) = (origin.as_dvec3(), n.as_dvec3());
@@ -461,7 +478,7 @@ impl RayCast for VoxelGrid<'_> {
         }
         let start = self.voxel_of(origin);
         out.extend(dirs.iter().map(|&d| {
-            self.closest(origin, d, start, f32::INFINITY, skip, scratch, |s, _, p| {
+            self.closest(origin, d, start, f32::INFINITY, skip, scratch, |s, p| {
                 s.per_origin[p as usize]
             })
         }));

@@ -5,14 +5,20 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rad_accel::VoxelGrid;
 use rad_geometry::file::load_scene;
 use rad_hemisphere::{compute_rows, Hemisphere, HemisphereConfig};
-use rad_repro::output::{write_atomic, write_patches_json, write_row_json, write_rows_footer, write_rows_header};
+use rad_repro::output::{
+    write_atomic, write_patches_json, write_row_json, write_rows_footer, write_rows_header,
+};
 use rad_repro::{default_grid, parse_patch_list, parse_resolution};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "coherad", version, about = "Radiosity form factors by hemisphere ray casting")]
+#[command(
+    name = "coherad",
+    version,
+    about = "Radiosity form factors by hemisphere ray casting"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -55,7 +61,10 @@ fn main() -> ExitCode {
             eprintln!("error: --threads must be at least 1");
             return ExitCode::from(2);
         }
-        if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
+        if let Err(e) = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+        {
             eprintln!("error: cannot start {n} threads: {e}");
             return ExitCode::FAILURE;
         }
@@ -70,13 +79,18 @@ fn main() -> ExitCode {
 }
 
 /// Writes through `fill` to `out` (atomically) or to standard output.
-fn emit(out: Option<&Path>, fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<(), String> {
+fn emit(
+    out: Option<&Path>,
+    fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<(), String> {
     match out {
         Some(path) => write_atomic(path, fill).map_err(|e| e.to_string()),
         None => {
             let stdout = std::io::stdout();
             let mut lock = std::io::BufWriter::new(stdout.lock());
-            fill(&mut lock).and_then(|_| lock.flush()).map_err(|e| format!("cannot write to standard output: {e}"))
+            fill(&mut lock)
+                .and_then(|_| lock.flush())
+                .map_err(|e| format!("cannot write to standard output: {e}"))
         }
     }
 }
@@ -87,25 +101,42 @@ fn run(cli: &Cli) -> Result<(), String> {
             let scene = load_scene(scene, cli.patch_size).map_err(|e| e.to_string())?;
             emit(out.as_deref(), |w| write_patches_json(w, &scene))
         }
-        Command::Formfactors { scene: path, resolution, patches, out } => {
+        Command::Formfactors {
+            scene: path,
+            resolution,
+            patches,
+            out,
+        } => {
             let (nt, np) = parse_resolution(resolution).map_err(|e| e.to_string())?;
-            let hemi = Hemisphere::new(HemisphereConfig::exact(nt, np)).map_err(|e| e.to_string())?;
+            let hemi =
+                Hemisphere::new(HemisphereConfig::exact(nt, np)).map_err(|e| e.to_string())?;
             let scene = load_scene(path, cli.patch_size).map_err(|e| e.to_string())?;
-            let ids = parse_patch_list(patches, scene.patches().len()).map_err(|e| e.to_string())?;
+            let ids =
+                parse_patch_list(patches, scene.patches().len()).map_err(|e| e.to_string())?;
             let grid = VoxelGrid::build(&scene, &default_grid()).map_err(|e| e.to_string())?;
             // A bar when the job is long: over about 50 M rays.
             let rays = ids.len() as u64 * hemi.n_cells() as u64;
-            let bar = if rays > 50_000_000 { ProgressBar::new(ids.len() as u64) } else { ProgressBar::hidden() };
+            let bar = if rays > 50_000_000 {
+                ProgressBar::new(ids.len() as u64)
+            } else {
+                ProgressBar::hidden()
+            };
             bar.set_style(
-                ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} rows, {elapsed} elapsed, eta {eta}")
-                    .expect("a valid template")
-                    .progress_chars("=> "),
+                ProgressStyle::with_template(
+                    "{msg} [{bar:40}] {pos}/{len} rows, {elapsed} elapsed, eta {eta}",
+                )
+                .expect("a valid template")
+                .progress_chars("=> "),
             );
             bar.set_message(format!("form factors {nt}x{np}"));
             let rows = compute_rows(&scene, &grid, &hemi, &ids, &|n| bar.set_position(n as u64))
                 .map_err(|e| e.to_string())?;
             bar.finish_and_clear();
-            let leaked: Vec<u32> = rows.iter().filter(|r| r.escaped > 0.0).map(|r| r.patch).collect();
+            let leaked: Vec<u32> = rows
+                .iter()
+                .filter(|r| r.escaped > 0.0)
+                .map(|r| r.patch)
+                .collect();
             if !leaked.is_empty() {
                 eprintln!(
                     "warning: {} row(s) lose form factor to rays that leave the scene (first: patch {}); the scene is not closed",

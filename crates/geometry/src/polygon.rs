@@ -197,12 +197,20 @@ impl Polygon {
         // (or any polygon whose vertices lie in it), wider for e.g. a trapezoid.
         let mut uv_box = [0.0f64, 1.0, 0.0, 1.0];
         for [u, v] in &uv_vertices {
-            uv_box = [uv_box[0].min(*u), uv_box[1].max(*u), uv_box[2].min(*v), uv_box[3].max(*v)];
+            uv_box = [
+                uv_box[0].min(*u),
+                uv_box[1].max(*u),
+                uv_box[2].min(*v),
+                uv_box[3].max(*v),
+            ];
         }
         if parallelogram {
             uv_box = [0.0, 1.0, 0.0, 1.0];
         }
-        let (cu, cv) = ((uv_box[1] - uv_box[0]) / nu as f64, (uv_box[3] - uv_box[2]) / nv as f64);
+        let (cu, cv) = (
+            (uv_box[1] - uv_box[0]) / nu as f64,
+            (uv_box[3] - uv_box[2]) / nv as f64,
+        );
         let cell_full = cu * cv;
         let mut cell_patch = vec![PatchId::MAX; (nu * nv) as usize];
         let mut patches = Vec::new();
@@ -272,7 +280,12 @@ impl Polygon {
             edges,
             nu: nu32,
             nv: nv32,
-            grid_map: [uv_box[0] as f32, (1.0 / cu) as f32, uv_box[2] as f32, (1.0 / cv) as f32],
+            grid_map: [
+                uv_box[0] as f32,
+                (1.0 / cu) as f32,
+                uv_box[2] as f32,
+                (1.0 / cv) as f32,
+            ],
             first_patch,
             cell_patch,
             name,
@@ -289,8 +302,9 @@ impl Polygon {
 
     /// Intersects the ray `o + t·d`, `0 < t < t_max`, with this polygon.
     ///
-    /// Points within a few ulps of the scene's scale outside an edge count as inside, so
-    /// polygons that share an edge leave no crack for a ray to slip through.
+    /// On the front side, points within a few ulps of the scene's scale outside an edge
+    /// count as inside, so polygons that share an edge leave no crack for a ray to slip
+    /// through; on the back side the polygon shrinks instead (see [`Polygon::contains_uv_back`]).
     #[inline]
     pub fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<PolygonHit> {
         let denom = self.normal.dot(d);
@@ -304,7 +318,29 @@ impl Polygon {
         let r = o + d * t - self.origin;
         let u = r.dot(self.du);
         let v = r.dot(self.dv);
-        self.contains_uv(u, v).then_some((t, u, v, denom < 0.0))
+        let front = denom < 0.0;
+        let inside = if front {
+            self.contains_uv(u, v)
+        } else {
+            self.contains_uv_back(u, v)
+        };
+        inside.then_some((t, u, v, front))
+    }
+
+    /// The inside test for hits on the back side: the polygon shrunk by the tolerance
+    /// that [`Polygon::contains_uv`] grows it by. Front faces grow so that polygons
+    /// sharing an edge leave no crack; back faces shrink so that a ray meeting a box's
+    /// edge from outside (or grazing it) takes the front face there, never the back of
+    /// the face beyond it.
+    #[inline]
+    pub fn contains_uv_back(&self, u: f32, v: f32) -> bool {
+        if self.parallelogram {
+            u >= self.eps_u && v >= self.eps_v && u <= 1.0 - self.eps_u && v <= 1.0 - self.eps_v
+        } else {
+            self.edges
+                .iter()
+                .all(|e| e[0] * u + e[1] * v + e[2] >= self.eps)
+        }
     }
 
     /// True when parameters (u, v) lie inside the polygon, or within a few ulps of the

@@ -135,7 +135,10 @@ impl Scene {
             let (nu, nv) = grid_cells(&pd).map_err(|p| fail(&pd.name, p))?;
             if nu.saturating_mul(nv) > crate::polygon::MAX_CELLS_PER_POLYGON {
                 let limit = crate::polygon::MAX_CELLS_PER_POLYGON;
-                return Err(fail(&pd.name, PolygonProblem::PatchGridTooLarge { nu, nv, limit }));
+                return Err(fail(
+                    &pd.name,
+                    PolygonProblem::PatchGridTooLarge { nu, nv, limit },
+                ));
             }
             if patches.len() as u64 + nu.saturating_mul(nv) > MAX_PATCHES {
                 return Err(Error::TooManyPatches {

@@ -8,7 +8,9 @@ use glam::DVec3;
 use rad_accel::VoxelGrid;
 use rad_geometry::scenes::{cube, CUBE_FACES};
 use rad_geometry::Scene;
-use rad_hemisphere::{compute_rows, point_to_polygon_form_factor, DeltaRule, Hemisphere, HemisphereConfig, Row};
+use rad_hemisphere::{
+    compute_rows, point_to_polygon_form_factor, DeltaRule, Hemisphere, HemisphereConfig, Row,
+};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -22,7 +24,11 @@ pub struct NamedPatch {
 
 impl NamedPatch {
     pub fn new(face: usize, cell: [u32; 2]) -> NamedPatch {
-        NamedPatch { name: format!("{} ({},{})", CUBE_FACES[face], cell[0], cell[1]), face, cell }
+        NamedPatch {
+            name: format!("{} ({},{})", CUBE_FACES[face], cell[0], cell[1]),
+            face,
+            cell,
+        }
     }
 }
 
@@ -84,23 +90,40 @@ pub struct CubeAccuracy {
 /// Lambert's unoccluded point-to-patch form factor from patch `from`'s centre.
 pub fn lambert(scene: &Scene, from: usize, to: usize) -> f64 {
     let p = &scene.patches()[from];
-    let corners: Vec<DVec3> = scene.patches()[to].corners.iter().map(|c| c.as_dvec3()).collect();
+    let corners: Vec<DVec3> = scene.patches()[to]
+        .corners
+        .iter()
+        .map(|c| c.as_dvec3())
+        .collect();
     point_to_polygon_form_factor(p.center.as_dvec3(), p.normal.as_dvec3(), &corners)
 }
 
 /// Runs the experiment; `progress(step, of)` after each step.
-pub fn cube_accuracy(config: &AccuracyConfig, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<CubeAccuracy, Error> {
+pub fn cube_accuracy(
+    config: &AccuracyConfig,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<CubeAccuracy, Error> {
     let scene = Scene::new(cube(config.n))?;
     let grid = VoxelGrid::build(&scene, &default_grid())?;
     let per_face = (config.n * config.n) as usize;
-    let mut runs: Vec<((u32, u32), DeltaRule)> = config.resolutions.iter().map(|&r| (r, DeltaRule::Exact)).collect();
+    let mut runs: Vec<((u32, u32), DeltaRule)> = config
+        .resolutions
+        .iter()
+        .map(|&r| (r, DeltaRule::Exact))
+        .collect();
     runs.extend(config.midpoint_at.map(|r| (r, DeltaRule::Midpoint)));
     let steps = runs.len() + usize::from(config.face_factors_at.is_some());
     let mut rows = Vec::new();
     for (step, &((nt, np), delta)) in runs.iter().enumerate() {
-        let hemi = Hemisphere::new(HemisphereConfig { n_theta: nt, n_phi: np, delta, phi_shift: 0.0 })?;
+        let hemi = Hemisphere::new(HemisphereConfig {
+            n_theta: nt,
+            n_phi: np,
+            delta,
+            phi_shift: 0.0,
+        })?;
         for named in &config.patches {
-            let id = (named.face * per_face) as u32 + named.cell[1] * config.n as u32 + named.cell[0];
+            let id =
+                (named.face * per_face) as u32 + named.cell[1] * config.n as u32 + named.cell[0];
             let t = Instant::now();
             let row = compute_rows(&scene, &grid, &hemi, &[id], &|_| {})?.remove(0);
             let seconds = t.elapsed().as_secs_f64();
@@ -145,7 +168,10 @@ pub fn cube_accuracy(config: &AccuracyConfig, progress: &(dyn Fn(usize, usize) +
                 face[scene.patches()[j as usize].polygon as usize] += f / per_face as f64;
             }
         }
-        let max_row_sum_error = all_rows.iter().map(|r| (r.sum() - 1.0).abs()).fold(0.0, f64::max);
+        let max_row_sum_error = all_rows
+            .iter()
+            .map(|r| (r.sum() - 1.0).abs())
+            .fold(0.0, f64::max);
         face_factors = Some(FaceFactors {
             resolution: [nt, np],
             opposite: face[1],
@@ -157,5 +183,10 @@ pub fn cube_accuracy(config: &AccuracyConfig, progress: &(dyn Fn(usize, usize) +
         });
         progress(steps, steps);
     }
-    Ok(CubeAccuracy { config: config.clone(), rows, face_factors, all_rows })
+    Ok(CubeAccuracy {
+        config: config.clone(),
+        rows,
+        face_factors,
+        all_rows,
+    })
 }

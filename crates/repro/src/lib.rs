@@ -26,15 +26,27 @@ pub enum Error {
     #[error(transparent)]
     Hemisphere(#[from] rad_hemisphere::Error),
     #[error("bad {what} {input:?}: {reason}")]
-    Parse { what: &'static str, input: String, reason: String },
+    Parse {
+        what: &'static str,
+        input: String,
+        reason: String,
+    },
     #[error("cannot write {}: {source}", path.display())]
-    Write { path: std::path::PathBuf, source: std::io::Error },
+    Write {
+        path: std::path::PathBuf,
+        source: std::io::Error,
+    },
 }
 
 /// The voxel grid used everywhere unless told otherwise: about 4 voxels per polygon
 /// (measured best on the loft at 180 × 720; see ARCHITECTURE.md).
 pub fn default_grid() -> VoxelGridConfig {
-    VoxelGridConfig { resolution: GridResolution::Auto { density: 4.0, max_per_axis: 256 } }
+    VoxelGridConfig {
+        resolution: GridResolution::Auto {
+            density: 4.0,
+            max_per_axis: 256,
+        },
+    }
 }
 
 /// Where a figure comes from: filled in by the harness (the library reads no

@@ -1,7 +1,7 @@
 //! Checks on our loft: counts, closure, reciprocity, and the exact hemisphere's speed
 //! (voxel grid against brute force, one thread).
 
-use crate::reciprocity::{pairs, summarise, Reciprocity};
+use crate::reciprocity::{pairs, point_asymmetry, summarise, Reciprocity};
 use crate::stats::Summary;
 use crate::{default_grid, Error};
 use rad_accel::{BruteForce, VoxelGrid};
@@ -51,7 +51,12 @@ pub struct LoftChecks {
 }
 
 /// Median time of casting one hemisphere from each of `patches`, one thread.
-fn time_hemispheres<C: RayCast>(scene: &Scene, caster: &C, hemi: &Hemisphere, patches: &[u32]) -> f64 {
+fn time_hemispheres<C: RayCast>(
+    scene: &Scene,
+    caster: &C,
+    hemi: &Hemisphere,
+    patches: &[u32],
+) -> f64 {
     let mut scratch = caster.new_scratch();
     let mut buf = ItemBuffer::default();
     let mut times: Vec<f64> = patches
@@ -66,25 +71,40 @@ fn time_hemispheres<C: RayCast>(scene: &Scene, caster: &C, hemi: &Hemisphere, pa
     times[times.len() / 2]
 }
 
-pub fn loft_checks(config: &LoftConfig, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<LoftChecks, Error> {
+pub fn loft_checks(
+    config: &LoftConfig,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<LoftChecks, Error> {
     let scene = Scene::new(loft())?;
     let grid = VoxelGrid::build(&scene, &default_grid())?;
     let (nt, np) = config.resolution;
     let hemi = Hemisphere::new(HemisphereConfig::exact(nt, np))?;
     let n = scene.patches().len();
-    let closure: Vec<u32> = (0..n).step_by(config.closure_stride).map(|p| p as u32).collect();
+    let closure: Vec<u32> = (0..n)
+        .step_by(config.closure_stride)
+        .map(|p| p as u32)
+        .collect();
     let rows = compute_rows(&scene, &grid, &hemi, &closure, &|_| {})?;
     progress(1, 3);
     let max_escaped = rows.iter().map(|r| r.escaped).fold(0.0, f64::max);
     let max_back = rows.iter().map(|r| r.back).fold(0.0, f64::max);
     let row_sum = Summary::of(&rows.iter().map(|r| r.sum()).collect::<Vec<_>>());
 
-    let subset: Vec<u32> = (0..n).step_by(config.reciprocity_stride).map(|p| p as u32).collect();
+    let subset: Vec<u32> = (0..n)
+        .step_by(config.reciprocity_stride)
+        .map(|p| p as u32)
+        .collect();
     let rows = compute_rows(&scene, &grid, &hemi, &subset, &|_| {})?;
-    let reciprocity = summarise(&pairs(&scene, &rows, hemi.n_cells()), rows.len(), 100.0, |_, _| 0.0);
+    let reciprocity = summarise(
+        &pairs(&scene, &rows, hemi.n_cells()),
+        rows.len(),
+        100.0,
+        |i, j| point_asymmetry(&scene, i, j),
+    );
     progress(2, 3);
 
-    let spread = |k: usize| -> Vec<u32> { (0..k).map(|i| ((i * n) / k + n / (2 * k)) as u32).collect() };
+    let spread =
+        |k: usize| -> Vec<u32> { (0..k).map(|i| ((i * n) / k + n / (2 * k)) as u32).collect() };
     let rays = hemi.n_cells();
     let timing_of = |method, hemispheres, secs: f64| Timing {
         method,
@@ -93,14 +113,22 @@ pub fn loft_checks(config: &LoftConfig, progress: &(dyn Fn(usize, usize) + Sync)
         median_seconds_per_hemisphere: secs,
         median_mrays_per_second: rays as f64 / secs / 1e6,
     };
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().map_err(|e| Error::Parse {
-        what: "thread pool",
-        input: "1".into(),
-        reason: e.to_string(),
-    })?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .map_err(|e| Error::Parse {
+            what: "thread pool",
+            input: "1".into(),
+            reason: e.to_string(),
+        })?;
     let (t_grid, t_brute) = pool.install(|| {
         let g = time_hemispheres(&scene, &grid, &hemi, &spread(config.timed_grid));
-        let b = time_hemispheres(&scene, &BruteForce::new(&scene), &hemi, &spread(config.timed_brute));
+        let b = time_hemispheres(
+            &scene,
+            &BruteForce::new(&scene),
+            &hemi,
+            &spread(config.timed_brute),
+        );
         (g, b)
     });
     progress(3, 3);

@@ -11,14 +11,26 @@ use std::path::{Path, PathBuf};
 /// the same directory, which is renamed over `path` only once `fill` has succeeded and
 /// the data are flushed. On any error the temporary file is removed and `path` is left
 /// as it was.
-pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<(), Error> {
-    let err = |source| Error::Write { path: path.to_path_buf(), source };
+pub fn write_atomic(
+    path: &Path,
+    fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<(), Error> {
+    let err = |source| Error::Write {
+        path: path.to_path_buf(),
+        source,
+    };
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let name = path.file_name().ok_or_else(|| err(std::io::Error::other("not a file name")))?;
-    let tmp = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
+    let name = path
+        .file_name()
+        .ok_or_else(|| err(std::io::Error::other("not a file name")))?;
+    let tmp = dir.join(format!(
+        ".{}.{}.tmp",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
     let result = (|| {
         let file = std::fs::File::create(&tmp)?;
         let mut w = BufWriter::new(file);
@@ -76,7 +88,12 @@ pub fn write_patches_json(w: &mut dyn Write, scene: &Scene) -> std::io::Result<(
 
 /// Header of a form-factor file; rows follow with [`write_row_json`], then
 /// [`write_rows_footer`].
-pub fn write_rows_header(w: &mut dyn Write, resolution: (u32, u32), method: &str, n_patches: usize) -> std::io::Result<()> {
+pub fn write_rows_header(
+    w: &mut dyn Write,
+    resolution: (u32, u32),
+    method: &str,
+    n_patches: usize,
+) -> std::io::Result<()> {
     write!(
         w,
         "{{\"resolution\":[{},{}],\"method\":{},\"n_patches\":{},\"rows\":[\n",
@@ -100,7 +117,15 @@ pub fn write_row_json(w: &mut dyn Write, row: &Row, first: bool) -> std::io::Res
     if !first {
         w.write_all(b",\n")?;
     }
-    serde_json::to_writer(&mut *w, &R { patch: row.patch, entries: &row.entries, back: row.back, escaped: row.escaped })?;
+    serde_json::to_writer(
+        &mut *w,
+        &R {
+            patch: row.patch,
+            entries: &row.entries,
+            back: row.back,
+            escaped: row.escaped,
+        },
+    )?;
     Ok(())
 }
 
@@ -122,7 +147,11 @@ mod tests {
         });
         assert!(e.is_err());
         assert!(!path.exists());
-        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "temporary file left behind");
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            0,
+            "temporary file left behind"
+        );
         write_atomic(&path, |w| w.write_all(b"old")).unwrap();
         let _ = write_atomic(&path, |_| Err(std::io::Error::other("boom")));
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "old");

@@ -17,7 +17,14 @@ impl Summary {
     /// Summary of `values`; all zeros for an empty sample.
     pub fn of(values: &[f64]) -> Summary {
         if values.is_empty() {
-            return Summary { n: 0, min: 0.0, mean: 0.0, median: 0.0, p95: 0.0, max: 0.0 };
+            return Summary {
+                n: 0,
+                min: 0.0,
+                mean: 0.0,
+                median: 0.0,
+                p95: 0.0,
+                max: 0.0,
+            };
         }
         let mut v = values.to_vec();
         v.sort_by(f64::total_cmp);

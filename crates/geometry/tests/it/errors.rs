@@ -8,8 +8,17 @@ use std::io::Write;
 
 fn one(vertices: Vec<Vec3>, grid: PatchGrid) -> SceneDesc {
     SceneDesc {
-        materials: vec![Material { name: "m".into(), reflectance: Rgb([0.5; 3]), emission: Rgb::BLACK }],
-        polygons: vec![PolygonDesc { name: "p".into(), vertices, material: 0, grid }],
+        materials: vec![Material {
+            name: "m".into(),
+            reflectance: Rgb([0.5; 3]),
+            emission: Rgb::BLACK,
+        }],
+        polygons: vec![PolygonDesc {
+            name: "p".into(),
+            vertices,
+            material: 0,
+            grid,
+        }],
         camera: None,
     }
 }
@@ -20,7 +29,11 @@ fn square() -> Vec<Vec3> {
 
 fn problem(desc: SceneDesc) -> PolygonProblem {
     match Scene::new(desc) {
-        Err(Error::Polygon { polygon: 0, name, problem }) => {
+        Err(Error::Polygon {
+            polygon: 0,
+            name,
+            problem,
+        }) => {
             assert_eq!(name, "p");
             problem
         }
@@ -35,7 +48,10 @@ fn non_planar_polygon() {
     let mut v = square();
     v[2].z = 0.01;
     let p = problem(one(v, G));
-    assert!(matches!(p, PolygonProblem::NonPlanar { deviation, .. } if deviation > 1e-3), "{p:?}");
+    assert!(
+        matches!(p, PolygonProblem::NonPlanar { deviation, .. } if deviation > 1e-3),
+        "{p:?}"
+    );
     assert!(p.to_string().contains("not planar"));
 }
 
@@ -49,39 +65,71 @@ fn planar_within_tolerance_is_accepted() {
 #[test]
 fn degenerate_polygons() {
     let collinear = vec![Vec3::ZERO, Vec3::X, Vec3::new(2.0, 0.0, 0.0)];
-    assert!(matches!(problem(one(collinear, G)), PolygonProblem::Degenerate { .. }));
+    assert!(matches!(
+        problem(one(collinear, G)),
+        PolygonProblem::Degenerate { .. }
+    ));
     let repeated = vec![Vec3::ZERO, Vec3::X, Vec3::X, Vec3::Y];
-    assert!(matches!(problem(one(repeated, G)), PolygonProblem::Degenerate { .. }));
+    assert!(matches!(
+        problem(one(repeated, G)),
+        PolygonProblem::Degenerate { .. }
+    ));
     let two = vec![Vec3::ZERO, Vec3::X];
-    assert!(matches!(problem(one(two, G)), PolygonProblem::TooFewVertices { count: 2 }));
+    assert!(matches!(
+        problem(one(two, G)),
+        PolygonProblem::TooFewVertices { count: 2 }
+    ));
 }
 
 #[test]
 fn non_convex_polygon() {
-    let dart = vec![Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0), Vec3::new(1.0, 0.3, 0.0), Vec3::new(0.0, 2.0, 0.0)];
-    assert!(matches!(problem(one(dart, G)), PolygonProblem::NonConvex { vertex: 2 }));
+    let dart = vec![
+        Vec3::ZERO,
+        Vec3::new(2.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.3, 0.0),
+        Vec3::new(0.0, 2.0, 0.0),
+    ];
+    assert!(matches!(
+        problem(one(dart, G)),
+        PolygonProblem::NonConvex { vertex: 2 }
+    ));
     // Vertices out of order (a bow tie) are not convex either.
     let bow = vec![Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0), Vec3::X, Vec3::Y];
-    assert!(matches!(problem(one(bow, G)), PolygonProblem::NonConvex { .. } | PolygonProblem::Degenerate { .. }));
+    assert!(matches!(
+        problem(one(bow, G)),
+        PolygonProblem::NonConvex { .. } | PolygonProblem::Degenerate { .. }
+    ));
 }
 
 #[test]
 fn nan_and_infinite_coordinates() {
     let mut v = square();
     v[1].y = f32::NAN;
-    assert!(matches!(problem(one(v, G)), PolygonProblem::NonFinite { vertex: 1, .. }));
+    assert!(matches!(
+        problem(one(v, G)),
+        PolygonProblem::NonFinite { vertex: 1, .. }
+    ));
     // JSON has no NaN; a number too large for f32 becomes infinite and is caught.
     let json = r#"{"materials":[{"name":"m","reflectance":[0.5,0.5,0.5]}],
         "polygons":[{"name":"p","material":"m","patches":[1,1],"vertices":[[0,0,0],[1e39,0,0],[1,1,0]]}]}"#;
     let desc = scene_desc_from_json(json, None).unwrap();
-    assert!(matches!(problem(desc), PolygonProblem::NonFinite { vertex: 1, .. }));
+    assert!(matches!(
+        problem(desc),
+        PolygonProblem::NonFinite { vertex: 1, .. }
+    ));
 }
 
 #[test]
 fn zero_and_huge_patch_grids() {
     let p = problem(one(square(), PatchGrid::Cells { nu: 0, nv: 3 }));
     assert!(matches!(p, PolygonProblem::ZeroPatchGrid { nu: 0, nv: 3 }));
-    let p = problem(one(square(), PatchGrid::Cells { nu: 1 << 20, nv: 1 << 20 }));
+    let p = problem(one(
+        square(),
+        PatchGrid::Cells {
+            nu: 1 << 20,
+            nv: 1 << 20,
+        },
+    ));
     assert!(matches!(p, PolygonProblem::PatchGridTooLarge { .. }));
     let p = problem(one(square(), PatchGrid::Size(0.0)));
     assert!(matches!(p, PolygonProblem::BadPatchSize { .. }));
@@ -92,18 +140,39 @@ fn bad_materials() {
     let mut d = one(square(), G);
     d.materials[0].reflectance = Rgb([0.5, 1.0, 0.5]);
     let e = Scene::new(d).unwrap_err();
-    assert!(matches!(&e, Error::Material { what: "reflectance", .. }), "{e}");
+    assert!(
+        matches!(
+            &e,
+            Error::Material {
+                what: "reflectance",
+                ..
+            }
+        ),
+        "{e}"
+    );
     assert!(e.to_string().contains("[0, 1)"));
     let mut d = one(square(), G);
     d.materials[0].emission = Rgb([-1.0, 0.0, 0.0]);
-    assert!(matches!(Scene::new(d).unwrap_err(), Error::Material { what: "emission", .. }));
+    assert!(matches!(
+        Scene::new(d).unwrap_err(),
+        Error::Material {
+            what: "emission",
+            ..
+        }
+    ));
     let mut d = one(square(), G);
     d.polygons[0].material = 3;
-    assert!(matches!(problem(d), PolygonProblem::MaterialIndexOutOfRange { index: 3, len: 1 }));
+    assert!(matches!(
+        problem(d),
+        PolygonProblem::MaterialIndexOutOfRange { index: 3, len: 1 }
+    ));
     let json = r#"{"materials":[{"name":"m","reflectance":[0.5,0.5,0.5]}],
         "polygons":[{"name":"p","material":"nope","patches":[1,1],"vertices":[[0,0,0],[1,0,0],[1,1,0]]}]}"#;
     let e = scene_desc_from_json(json, None).unwrap_err();
-    assert!(matches!(&e, Error::Polygon { problem: PolygonProblem::UnknownMaterial { name }, .. } if name == "nope"), "{e}");
+    assert!(
+        matches!(&e, Error::Polygon { problem: PolygonProblem::UnknownMaterial { name }, .. } if name == "nope"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -111,13 +180,26 @@ fn vertex_index_out_of_range() {
     let json = r#"{"materials":[{"name":"m","reflectance":[0.5,0.5,0.5]}], "vertices":[[0,0,0],[1,0,0],[1,1,0]],
         "polygons":[{"name":"p","material":"m","patches":[1,1],"indices":[0,1,7]}]}"#;
     let e = scene_desc_from_json(json, None).unwrap_err();
-    assert!(matches!(&e, Error::IndexOutOfRange { index: 7, len: 3, .. }), "{e}");
+    assert!(
+        matches!(
+            &e,
+            Error::IndexOutOfRange {
+                index: 7,
+                len: 3,
+                ..
+            }
+        ),
+        "{e}"
+    );
     assert!(e.to_string().contains("polygon 0"));
 }
 
 fn write(dir: &tempfile::TempDir, name: &str, text: &str) -> std::path::PathBuf {
     let path = dir.path().join(name);
-    std::fs::File::create(&path).unwrap().write_all(text.as_bytes()).unwrap();
+    std::fs::File::create(&path)
+        .unwrap()
+        .write_all(text.as_bytes())
+        .unwrap();
     path
 }
 
@@ -150,7 +232,13 @@ fn file_errors_name_the_file_and_the_polygon() {
                     {"name":"warped","material":"m","patches":[1,1],"vertices":[[0,0,0],[1,0,0],[1,1,0.5],[0,1,0]]}]}"#,
     );
     let msg = load_scene(&path, None).unwrap_err().to_string();
-    assert!(msg.contains("bad.json") && msg.contains("polygon 1") && msg.contains("warped") && msg.contains("not planar"), "{msg}");
+    assert!(
+        msg.contains("bad.json")
+            && msg.contains("polygon 1")
+            && msg.contains("warped")
+            && msg.contains("not planar"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -158,16 +246,27 @@ fn obj_files() {
     let dir = tempfile::tempdir().unwrap();
     write(&dir, "m.mtl", "newmtl lamp\nKd 0.5 0.5 0.5\nKe 10 10 10\n");
     write(&dir, "b.mtl", "newmtl bad\nKd 1.2 0.5 0.5\n");
-    let ok = write(&dir, "ok.obj", "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nusemtl lamp\nf 1 2 3 4\n");
+    let ok = write(
+        &dir,
+        "ok.obj",
+        "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nusemtl lamp\nf 1 2 3 4\n",
+    );
     let s = load_scene(&ok, Some(0.25)).unwrap();
     assert_eq!(s.polygons().len(), 1);
     assert_eq!(s.patches().len(), 16);
     assert_eq!(s.materials()[0].emission, Rgb([10.0; 3]));
     let e = load_scene(&ok, None).unwrap_err();
     assert!(e.to_string().contains("patch size"), "{e}");
-    let bad = write(&dir, "bad.obj", "mtllib b.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nusemtl bad\nf 1 2 3\n");
+    let bad = write(
+        &dir,
+        "bad.obj",
+        "mtllib b.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nusemtl bad\nf 1 2 3\n",
+    );
     let e = load_scene(&bad, Some(0.5)).unwrap_err();
-    assert!(e.to_string().contains("bad.obj") && e.to_string().contains("reflectance"), "{e}");
+    assert!(
+        e.to_string().contains("bad.obj") && e.to_string().contains("reflectance"),
+        "{e}"
+    );
     let oob = write(&dir, "oob.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 9\n");
     let e = load_scene(&oob, Some(0.5)).unwrap_err();
     assert!(e.to_string().contains("oob.obj"), "{e}");

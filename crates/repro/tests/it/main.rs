@@ -1,0 +1,3 @@
+//! Integration tests of rad-repro: physics invariants on the bench scenes.
+
+mod invariants;
