@@ -3,6 +3,8 @@
 //! the builders.
 
 mod reproduce;
+#[cfg(test)]
+mod tidy;
 
 use anyhow::{bail, Context, Result};
 use std::path::PathBuf;

@@ -2,15 +2,12 @@
 
 use anyhow::{Context, Result};
 use rad_geometry::file::scene_desc_to_json;
-use rad_geometry::scenes::{cornell_box, cube, loft};
+use rad_geometry::scenes::{cornell_box, cube, loft, CORNELL_PATCH_MM};
 use rad_geometry::Scene;
 use rad_repro::output::write_atomic;
 use rad_repro::Provenance;
 use std::path::Path;
 use std::time::Instant;
-
-/// Patch size of the Cornell box scene file, millimetres.
-pub const CORNELL_PATCH_MM: f32 = 40.0;
 
 pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;

@@ -5,7 +5,7 @@ mod cornell;
 mod cube;
 mod loft;
 
-pub use cornell::cornell_box;
+pub use cornell::{cornell_box, CORNELL_PATCH_MM};
 pub use cube::{cube, CUBE_FACES};
 
 use crate::scene::{Material, PatchGrid, PolygonDesc};

@@ -88,6 +88,9 @@ const TALL_BLOCK: [[[f32; 3]; 4]; 5] = [
     ],
 ];
 
+/// Patch size of `bench-scenes/cornell.json`, millimetres.
+pub const CORNELL_PATCH_MM: f32 = 40.0;
+
 /// The Cornell box with patches about `patch_size` mm on a side.
 pub fn cornell_box(patch_size: f32) -> SceneDesc {
     let materials = vec![

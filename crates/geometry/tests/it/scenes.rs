@@ -92,3 +92,24 @@ fn cornell_box_builds_with_every_patch_facing_into_the_box() {
         );
     }
 }
+
+#[test]
+fn committed_bench_scene_files_match_their_builders() {
+    // `cargo xtask scenes` writes them; this keeps them in step with the code.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench-scenes");
+    let cases = [
+        ("cube.json", cube(10)),
+        ("loft.json", loft()),
+        (
+            "cornell.json",
+            cornell_box(rad_geometry::scenes::CORNELL_PATCH_MM),
+        ),
+    ];
+    for (name, built) in cases {
+        let file = rad_geometry::file::load_scene_desc(&dir.join(name), None).unwrap();
+        assert_eq!(
+            file, built,
+            "{name} is out of date: run `cargo xtask scenes`"
+        );
+    }
+}

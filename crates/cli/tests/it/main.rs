@@ -1,0 +1,178 @@
+//! The `coherad` binary end to end: outputs, errors, and no partial files.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn coherad(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_coherad"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn bench_scene(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../bench-scenes")
+        .join(name)
+}
+
+fn json(out: &std::process::Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("stdout is JSON alone")
+}
+
+#[test]
+fn patches_of_the_cube() {
+    let v = json(&coherad(&[
+        "patches",
+        bench_scene("cube.json").to_str().unwrap(),
+    ]));
+    let patches = v["patches"].as_array().unwrap();
+    assert_eq!(patches.len(), 600);
+    let p = &patches[43];
+    assert_eq!(p["id"], 43);
+    assert_eq!(p["polygon"], 0);
+    assert!((p["area"].as_f64().unwrap() - 0.01).abs() < 1e-9);
+    assert_eq!(p["corners"].as_array().unwrap().len(), 4);
+}
+
+#[test]
+fn form_factors_of_some_cube_patches() {
+    let scene = bench_scene("cube.json");
+    let v = json(&coherad(&[
+        "formfactors",
+        scene.to_str().unwrap(),
+        "--resolution",
+        "45x180",
+        "--patches",
+        "0,43-44",
+    ]));
+    assert_eq!(v["resolution"], serde_json::json!([45, 180]));
+    assert_eq!(v["method"], "exact");
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(
+        rows.iter()
+            .map(|r| r["patch"].as_u64().unwrap())
+            .collect::<Vec<_>>(),
+        vec![0, 43, 44]
+    );
+    for r in rows {
+        let sum: f64 = r["entries"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|e| e[1].as_f64().unwrap())
+            .sum();
+        assert!((sum - 1.0).abs() < 1e-9, "{sum}");
+    }
+}
+
+#[test]
+fn results_do_not_depend_on_the_thread_count() {
+    let scene = bench_scene("loft.json");
+    let args = |t: &'static str| {
+        [
+            "--threads",
+            t,
+            "formfactors",
+            scene.to_str().unwrap(),
+            "--resolution",
+            "20x80",
+            "--patches",
+            "0-40,9000-9010",
+        ]
+        .map(String::from)
+    };
+    let one = coherad(&args("1").iter().map(String::as_str).collect::<Vec<_>>());
+    let two = coherad(&args("2").iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(one.status.success() && two.status.success());
+    assert_eq!(one.stdout, two.stdout);
+}
+
+#[test]
+fn bad_input_is_a_clear_error_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rows.json");
+    let scene = bench_scene("cube.json");
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec![
+                "formfactors".into(),
+                scene.display().to_string(),
+                "--resolution".into(),
+                "0x720".into(),
+            ],
+            "resolution",
+        ),
+        (
+            vec![
+                "formfactors".into(),
+                scene.display().to_string(),
+                "--resolution".into(),
+                "100000x100000".into(),
+            ],
+            "over the limit",
+        ),
+        (
+            vec![
+                "formfactors".into(),
+                scene.display().to_string(),
+                "--patches".into(),
+                "600".into(),
+            ],
+            "out of range",
+        ),
+        (
+            vec!["formfactors".into(), "no/such/scene.json".into()],
+            "no/such/scene.json",
+        ),
+    ];
+    for (args, needle) in cases {
+        let mut args = args;
+        args.extend(["--out".to_string(), out.display().to_string()]);
+        let r = coherad(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        assert!(!r.status.success(), "{args:?} succeeded");
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(err.contains(needle), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(!out.exists(), "{args:?} left an output file");
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            0,
+            "{args:?} left a temporary file"
+        );
+    }
+    // A malformed scene names its file and line.
+    let bad = dir.path().join("bad.json");
+    std::fs::write(&bad, "{\"materials\": [}").unwrap();
+    let r = coherad(&[
+        "patches",
+        bad.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(!r.status.success() && err.contains("bad.json:1:"), "{err}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn out_file_is_written_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p.json");
+    let r = coherad(&[
+        "patches",
+        bench_scene("cornell.json").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(r.status.success());
+    assert!(r.stdout.is_empty());
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert!(v["patches"].as_array().unwrap().len() > 100);
+}
