@@ -203,6 +203,7 @@ impl<'s> VoxelGrid<'s> {
                     plane_d: p.plane_offset(),
                     du,
                     du_off: p.origin().dot(du),
+                    // (as in Polygon::origin_terms, so both give the same bits)
                     dv,
                     dv_off: p.origin().dot(dv),
                     uv_bounds: p.uv_bounds(),

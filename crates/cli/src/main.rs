@@ -3,12 +3,13 @@
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use rad_accel::VoxelGrid;
+use rad_estimator::{estimate_rows, windows, Mode, Source};
 use rad_geometry::file::load_scene;
-use rad_hemisphere::{compute_rows, Hemisphere, HemisphereConfig};
+use rad_hemisphere::{compute_rows, Hemisphere, HemisphereConfig, Row};
 use rad_repro::output::{
     write_atomic, write_patches_json, write_row_json, write_rows_footer, write_rows_header,
 };
-use rad_repro::{default_grid, parse_patch_list, parse_resolution};
+use rad_repro::{default_estimator, default_grid, parse_patch_list, parse_resolution};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -48,10 +49,28 @@ enum Command {
         /// Patches whose rows to compute: "all" or a list like 3,17,40-59.
         #[arg(long, default_value = "all")]
         patches: String,
+        /// exact: every hemisphere ray cast; estimated: 3x3 windows, centres cast, the rest estimated.
+        #[arg(long, value_enum, default_value_t = Method::Exact)]
+        method: Method,
+        /// With --method estimated: the report's method (faithful) or visibility estimation (improved).
+        #[arg(long, value_enum, default_value_t = EstimatorMode::Improved)]
+        estimator: EstimatorMode,
         /// Write here instead of standard output (atomically: all or nothing).
         #[arg(long)]
         out: Option<PathBuf>,
     },
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Method {
+    Exact,
+    Estimated,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum EstimatorMode {
+    Faithful,
+    Improved,
 }
 
 fn main() -> ExitCode {
@@ -106,6 +125,8 @@ fn run(cli: &Cli) -> Result<(), String> {
             resolution,
             patches,
             out,
+            method,
+            estimator,
         } => {
             let (nt, np) = parse_resolution(resolution).map_err(|e| e.to_string())?;
             let hemi =
@@ -123,14 +144,58 @@ fn run(cli: &Cli) -> Result<(), String> {
             };
             bar.set_style(
                 ProgressStyle::with_template(
-                    "{msg} [{bar:40}] {pos}/{len} rows, {elapsed} elapsed, eta {eta}",
+                    "{msg} [{bar:40}] {pos}/{len} {prefix}, {elapsed} elapsed, eta {eta}",
                 )
                 .expect("a valid template")
                 .progress_chars("=> "),
             );
-            bar.set_message(format!("form factors {nt}x{np}"));
-            let rows = compute_rows(&scene, &grid, &hemi, &ids, &|n| bar.set_position(n as u64))
-                .map_err(|e| e.to_string())?;
+            let (rows, sources, method_name): (Vec<Row>, Vec<Option<u32>>, &str) = match method {
+                Method::Exact => {
+                    bar.set_message(format!("exact form factors {nt}x{np}"));
+                    bar.set_prefix("rows");
+                    let rows =
+                        compute_rows(&scene, &grid, &hemi, &ids, &|n| bar.set_position(n as u64))
+                            .map_err(|e| e.to_string())?;
+                    let n = rows.len();
+                    (rows, vec![None; n], "exact")
+                }
+                Method::Estimated => {
+                    let mode = match estimator {
+                        EstimatorMode::Faithful => Mode::Faithful,
+                        EstimatorMode::Improved => Mode::Improved,
+                    };
+                    let config = default_estimator(mode);
+                    bar.set_length(windows(&scene).len() as u64);
+                    bar.set_prefix("windows");
+                    bar.set_message(format!("estimated form factors {nt}x{np}"));
+                    let (rows, stats) = estimate_rows(&scene, &grid, &hemi, &config, &ids, &|n| {
+                        bar.set_position(n as u64)
+                    })
+                    .map_err(|e| e.to_string())?;
+                    bar.finish_and_clear();
+                    eprintln!(
+                        "{} rows cast exactly (window centres), {} estimated, {} cast exactly after needing real rays for over {:.0} % of their cells ({} real rays)",
+                        stats.exact,
+                        stats.estimated,
+                        stats.fallback_exact,
+                        100.0 * config.max_real_ray_share,
+                        stats.real_rays
+                    );
+                    let sources = rows
+                        .iter()
+                        .map(|r| match r.source {
+                            Source::Exact | Source::ExactFallback { .. } => None,
+                            Source::Estimated { from } => Some(from),
+                        })
+                        .collect();
+                    let name = if mode == Mode::Faithful {
+                        "estimated/faithful"
+                    } else {
+                        "estimated/improved"
+                    };
+                    (rows.into_iter().map(|r| r.row).collect(), sources, name)
+                }
+            };
             bar.finish_and_clear();
             let leaked: Vec<u32> = rows
                 .iter()
@@ -149,9 +214,9 @@ fn run(cli: &Cli) -> Result<(), String> {
                 eprintln!("warning: {backs} row(s) see polygons from behind (their \"back\" form factor is > 0)");
             }
             emit(out.as_deref(), |w| {
-                write_rows_header(w, (nt, np), "exact", scene.patches().len())?;
-                for (k, r) in rows.iter().enumerate() {
-                    write_row_json(w, r, k == 0)?;
+                write_rows_header(w, (nt, np), method_name, scene.patches().len())?;
+                for (k, (r, src)) in rows.iter().zip(&sources).enumerate() {
+                    write_row_json(w, r, *src, k == 0)?;
                 }
                 write_rows_footer(w)
             })

@@ -327,6 +327,38 @@ impl Polygon {
         inside.then_some((t, u, v, front))
     }
 
+    /// Terms of the intersection that depend only on the ray origin `o`:
+    /// `(d − n·o, o·du − origin·du, o·dv − origin·dv)`; see [`Polygon::intersect_from`].
+    #[inline]
+    pub fn origin_terms(&self, o: Vec3) -> [f32; 3] {
+        [
+            self.plane_d - self.normal.dot(o),
+            o.dot(self.du) - self.origin.dot(self.du),
+            o.dot(self.dv) - self.origin.dot(self.dv),
+        ]
+    }
+
+    /// [`Polygon::intersect`] from an origin's [`Polygon::origin_terms`]: the
+    /// arithmetic of the voxel grid's shared-origin queries, so that both give the same
+    /// (u, v) to the last bit.
+    #[inline]
+    pub fn intersect_from(&self, terms: [f32; 3], d: Vec3, t_max: f32) -> Option<PolygonHit> {
+        let denom = self.normal.dot(d);
+        let t = terms[0] / denom;
+        if !(t > 0.0 && t < t_max) {
+            return None;
+        }
+        let u = terms[1] + t * self.du.dot(d);
+        let v = terms[2] + t * self.dv.dot(d);
+        let front = denom < 0.0;
+        let inside = if front {
+            self.contains_uv(u, v)
+        } else {
+            self.contains_uv_back(u, v)
+        };
+        inside.then_some((t, u, v, front))
+    }
+
     /// The inside test for hits on the back side: the polygon shrunk by the tolerance
     /// that [`Polygon::contains_uv`] grows it by. Front faces grow so that polygons
     /// sharing an edge leave no crack; back faces shrink so that a ray meeting a box's

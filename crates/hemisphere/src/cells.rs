@@ -114,6 +114,35 @@ impl Hemisphere {
     pub fn ring_form_factors(&self) -> &[f64] {
         &self.ring_ff
     }
+    /// Δθ = (π/2) / N_θ.
+    pub fn d_theta(&self) -> f64 {
+        FRAC_PI_2 / self.config.n_theta as f64
+    }
+    /// Δφ = 2π / N_φ.
+    pub fn d_phi(&self) -> f64 {
+        2.0 * PI / self.config.n_phi as f64
+    }
+    /// Polar angle of the centre of ring `i`.
+    pub fn theta(&self, i: usize) -> f64 {
+        (i as f64 + 0.5) * self.d_theta()
+    }
+    /// Azimuth of the centre of sector `j` (with the φ shift).
+    pub fn phi(&self, j: usize) -> f64 {
+        (j as f64 + 0.5 + self.config.phi_shift) * self.d_phi()
+    }
+    /// The cell containing direction (θ, φ), or None if θ is outside [0, π/2).
+    /// φ may be any angle (it is wrapped).
+    #[inline]
+    pub fn cell_of(&self, theta: f64, phi: f64) -> Option<usize> {
+        if !(theta >= 0.0 && theta < FRAC_PI_2) {
+            return None;
+        }
+        let k = ((theta / self.d_theta()) as usize).min(self.n_theta() - 1);
+        let l = (phi / self.d_phi() - self.config.phi_shift)
+            .floor()
+            .rem_euclid(self.n_phi() as f64) as usize;
+        Some(k * self.n_phi() + l.min(self.n_phi() - 1))
+    }
 }
 
 /// Delta form factor of a cell of each ring, for `n_theta` rings of `n_phi` cells.

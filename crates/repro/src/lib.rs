@@ -4,6 +4,7 @@
 
 pub mod accuracy;
 pub mod closed_form;
+pub mod estimation;
 pub mod loft;
 pub mod output;
 mod parse;
@@ -46,6 +47,23 @@ pub fn default_grid() -> VoxelGridConfig {
             density: 4.0,
             max_per_axis: 256,
         },
+    }
+}
+
+/// The estimator settings used unless told otherwise (by the CLI and the harness):
+/// ring-neighbour hole filling, first order where R sinθ > 10 |C1C2| (exact elsewhere),
+/// no boundary lists (they help neither mode enough: see results/REPORT.md), and in
+/// improved mode a patch needing real rays for over 5 % of its cells is cast exactly.
+pub fn default_estimator(mode: rad_estimator::Mode) -> rad_estimator::EstimatorConfig {
+    rad_estimator::EstimatorConfig {
+        mode,
+        fill: rad_estimator::HoleFill::RingNeighbour,
+        reprojection: rad_estimator::Reprojection::FirstOrder {
+            test: rad_estimator::ThresholdTest::Lateral,
+            threshold: 10.0,
+        },
+        boundary_lists: false,
+        max_real_ray_share: 0.05,
     }
 }
 

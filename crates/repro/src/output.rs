@@ -104,12 +104,25 @@ pub fn write_rows_header(
     )
 }
 
-/// One row: `{"patch":p,"entries":[[j,F],...],"back":b,"escaped":e}`; `first` is true
-/// for the first row of the file.
-pub fn write_row_json(w: &mut dyn Write, row: &Row, first: bool) -> std::io::Result<()> {
+/// One row: `{"patch":p,"source":"exact"|q,"entries":[[j,F],...],"back":b,"escaped":e}`,
+/// `source` being `"exact"` for a ray-cast row or the id of the patch it was estimated
+/// from; `first` is true for the first row of the file.
+pub fn write_row_json(
+    w: &mut dyn Write,
+    row: &Row,
+    estimated_from: Option<u32>,
+    first: bool,
+) -> std::io::Result<()> {
+    #[derive(serde::Serialize)]
+    #[serde(untagged)]
+    enum Src {
+        Exact(&'static str),
+        From(u32),
+    }
     #[derive(serde::Serialize)]
     struct R<'a> {
         patch: u32,
+        source: Src,
         entries: &'a [(u32, f64)],
         back: f64,
         escaped: f64,
@@ -117,10 +130,12 @@ pub fn write_row_json(w: &mut dyn Write, row: &Row, first: bool) -> std::io::Res
     if !first {
         w.write_all(b",\n")?;
     }
+    let source = estimated_from.map_or(Src::Exact("exact"), Src::From);
     serde_json::to_writer(
         &mut *w,
         &R {
             patch: row.patch,
+            source,
             entries: &row.entries,
             back: row.back,
             escaped: row.escaped,

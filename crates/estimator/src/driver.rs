@@ -1,0 +1,162 @@
+//! Rows of a scene with the window schedule: exact hemispheres at window centres,
+//! estimated ones elsewhere, in parallel and deterministically.
+
+use crate::config::{EstimatorConfig, Mode};
+use crate::faithful::Estimator;
+use crate::schedule::windows;
+use crate::source::SourceHemisphere;
+use crate::Error;
+use rad_core::{PatchId, RayCast};
+use rad_geometry::Scene;
+use rad_hemisphere::{Hemisphere, ItemBuffer, Row, RowAccumulator};
+use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// Where a row came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Source {
+    /// Ray cast: a window's centre.
+    Exact,
+    /// Estimated from this patch's exact hemisphere.
+    Estimated { from: PatchId },
+    /// Improved mode: its estimate needed too many real rays, so it was cast exactly.
+    ExactFallback { from: PatchId },
+}
+
+/// A row with its provenance.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EstimatedRow {
+    pub row: Row,
+    pub source: Source,
+    /// Holes filled (estimated rows), and real rays cast by the improved mode.
+    pub holes: u32,
+    pub real_rays: u32,
+}
+
+/// Counts over a run.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EstimateStats {
+    pub exact: usize,
+    pub estimated: usize,
+    pub fallback_exact: usize,
+    pub real_rays: u64,
+    pub holes: u64,
+    pub polygon_tests: u64,
+}
+
+/// Rows of `patches` by the window schedule: the exact hemisphere of each window's centre
+/// (with boundary lists if configured) and estimates of the others. Windows run in
+/// parallel; the result does not depend on the thread count. `progress(n)` after each
+/// window.
+pub fn estimate_rows<C: RayCast>(
+    scene: &Scene,
+    caster: &C,
+    hemi: &Hemisphere,
+    config: &EstimatorConfig,
+    patches: &[PatchId],
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<(Vec<EstimatedRow>, EstimateStats), Error> {
+    config.validate()?;
+    let n_patches = scene.patches().len();
+    if let Some(&bad) = patches.iter().find(|&&p| p as usize >= n_patches) {
+        return Err(rad_hemisphere::Error::PatchOutOfRange {
+            patch: bad as u64,
+            n_patches,
+        }
+        .into());
+    }
+    let wanted: std::collections::HashSet<PatchId> = patches.iter().copied().collect();
+    let todo: Vec<_> = windows(scene)
+        .into_iter()
+        .filter(|w| wanted.contains(&w.centre) || w.estimated.iter().any(|p| wanted.contains(p)))
+        .collect();
+    let est = Estimator::new(hemi);
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let per_window: Vec<Vec<(PatchId, EstimatedRow, u64)>> = todo
+        .par_iter()
+        .map_init(
+            || {
+                (
+                    caster.new_scratch(),
+                    RowAccumulator::new(n_patches),
+                    ItemBuffer::default(),
+                )
+            },
+            |(scratch, acc, buf), w| {
+                let mut out = Vec::new();
+                let src = SourceHemisphere::cast(
+                    scene,
+                    caster,
+                    hemi,
+                    w.centre,
+                    config.boundary_lists,
+                    scratch,
+                );
+                if wanted.contains(&w.centre) {
+                    let row = hemi.row_from_items(w.centre, &src.items, acc);
+                    out.push((
+                        w.centre,
+                        EstimatedRow {
+                            row,
+                            source: Source::Exact,
+                            holes: 0,
+                            real_rays: 0,
+                        },
+                        0,
+                    ));
+                }
+                for &p in w.estimated.iter().filter(|p| wanted.contains(p)) {
+                    let (items, holes, real_rays, tests, fallback) = match config.mode {
+                        Mode::Faithful => {
+                            let e = est.faithful(scene, &src, p, config);
+                            (e.items, e.holes, 0, 0, false)
+                        }
+                        Mode::Improved => {
+                            let e = est.improved(scene, caster, &src, p, config, scratch);
+                            let share = e.real_rays as f64 / hemi.n_cells() as f64;
+                            if share > config.max_real_ray_share {
+                                hemi.cast(scene, caster, p, scratch, buf);
+                                (std::mem::take(buf), e.holes, e.real_rays, e.tests, true)
+                            } else {
+                                (e.items, e.holes, e.real_rays, e.tests, false)
+                            }
+                        }
+                    };
+                    let row = hemi.row_from_items(p, &items, acc);
+                    let source = if fallback {
+                        Source::ExactFallback { from: w.centre }
+                    } else {
+                        Source::Estimated { from: w.centre }
+                    };
+                    out.push((
+                        p,
+                        EstimatedRow {
+                            row,
+                            source,
+                            holes: holes as u32,
+                            real_rays: real_rays as u32,
+                        },
+                        tests as u64,
+                    ));
+                }
+                progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
+                out
+            },
+        )
+        .collect();
+    let mut stats = EstimateStats::default();
+    let mut by_patch: HashMap<PatchId, EstimatedRow> = HashMap::new();
+    for (p, r, tests) in per_window.into_iter().flatten() {
+        match r.source {
+            Source::Exact => stats.exact += 1,
+            Source::Estimated { .. } => stats.estimated += 1,
+            Source::ExactFallback { .. } => stats.fallback_exact += 1,
+        }
+        stats.real_rays += r.real_rays as u64;
+        stats.holes += r.holes as u64;
+        stats.polygon_tests += tests;
+        by_patch.insert(p, r);
+    }
+    let rows = patches.iter().map(|p| by_patch[p].clone()).collect();
+    Ok((rows, stats))
+}

@@ -1,0 +1,407 @@
+//! The report's estimation: reproject every point of H1 to H2 (z-buffered), then fill
+//! the holes.
+
+use crate::config::{EstimatorConfig, HoleFill, Reprojection, ThresholdTest};
+use crate::reproject::Motion;
+use crate::source::SourceHemisphere;
+use rad_core::PatchId;
+use rad_geometry::Scene;
+use rad_hemisphere::{Hemisphere, ItemBuffer};
+
+/// Marker of a cell nothing landed in.
+pub(crate) const HOLE: PatchId = PatchId::MAX - 2;
+
+/// An estimated hemisphere: what each cell of H2 sees, with the holes that were filled.
+#[derive(Clone, Debug, Default)]
+pub struct Estimate {
+    pub items: ItemBuffer,
+    /// Cells nothing landed in (before filling), and their share of the form factor.
+    pub holes: usize,
+    pub hole_ff: f64,
+}
+
+/// Per-cell trigonometry of a hemisphere and its cell boundaries, computed once.
+#[derive(Clone, Debug)]
+pub(crate) struct CellTrig {
+    pub theta: Vec<f32>,
+    pub st: Vec<f32>,
+    pub ct: Vec<f32>,
+    pub phi: Vec<f32>,
+    pub sp: Vec<f32>,
+    pub cp: Vec<f32>,
+    /// cos² of ring edges: ring k holds cos²θ in (cos2_edge[k + 1], cos2_edge[k]].
+    pub cos2_edge: Vec<f32>,
+    /// First guess of the ring holding cos²θ = (t + ½) / len, corrected by `cos2_edge`.
+    pub ring_of_c2: Vec<u16>,
+    /// (cos, sin) of sector edges: sector l spans [edge l, edge l + 1).
+    pub phi_edge: Vec<[f32; 2]>,
+    pub inv_d_theta: f32,
+    pub inv_d_phi: f32,
+    pub shift: f32,
+    pub n_theta: usize,
+    pub n_phi: usize,
+}
+
+impl CellTrig {
+    pub fn new(hemi: &Hemisphere) -> CellTrig {
+        let theta: Vec<f64> = (0..hemi.n_theta()).map(|i| hemi.theta(i)).collect();
+        let phi: Vec<f64> = (0..hemi.n_phi()).map(|j| hemi.phi(j)).collect();
+        let f = |v: &[f64], g: fn(f64) -> f64| v.iter().map(|&x| g(x) as f32).collect::<Vec<f32>>();
+        let shift = hemi.config().phi_shift;
+        CellTrig {
+            st: f(&theta, f64::sin),
+            ct: f(&theta, f64::cos),
+            sp: f(&phi, f64::sin),
+            cp: f(&phi, f64::cos),
+            cos2_edge: (0..=hemi.n_theta())
+                .map(|k| {
+                    if k == hemi.n_theta() {
+                        0.0
+                    } else {
+                        (k as f64 * hemi.d_theta()).cos().powi(2) as f32
+                    }
+                })
+                .collect(),
+            ring_of_c2: (0..RING_TABLE)
+                .map(|t| {
+                    let c2 = (t as f64 + 0.5) / RING_TABLE as f64;
+                    ((c2.sqrt().acos() / hemi.d_theta()) as usize).min(hemi.n_theta() - 1) as u16
+                })
+                .collect(),
+            phi_edge: (0..=hemi.n_phi())
+                .map(|l| {
+                    let a = (l as f64 + shift) * hemi.d_phi();
+                    [a.cos() as f32, a.sin() as f32]
+                })
+                .collect(),
+            theta: theta.iter().map(|&x| x as f32).collect(),
+            phi: phi.iter().map(|&x| x as f32).collect(),
+            inv_d_theta: (1.0 / hemi.d_theta()) as f32,
+            inv_d_phi: (1.0 / hemi.d_phi()) as f32,
+            shift: shift as f32,
+            n_theta: hemi.n_theta(),
+            n_phi: hemi.n_phi(),
+        }
+    }
+
+    /// The sector of azimuth `phi` in [−2π, 4π), without divisions or libm calls.
+    #[inline(always)]
+    pub fn sector_of(&self, phi: f32) -> usize {
+        // Shifted by one turn so that truncation is floor for any phi ≥ −2π.
+        let n = self.n_phi;
+        let mut l = (phi * self.inv_d_phi - self.shift + n as f32).max(0.0) as usize;
+        for _ in 0..3 {
+            l = if l >= n { l - n } else { l };
+        }
+        l.min(n - 1)
+    }
+
+    /// The cell holding direction `q`, exactly (table and polynomial first guesses,
+    /// corrected against the cell edges), with `r2 = |q|²`; None if `q` is not above the
+    /// plane.
+    #[inline(always)]
+    pub fn cell_of_vector(&self, q: [f32; 3], r2: f32) -> Option<usize> {
+        if !(q[2] > 0.0) {
+            return None;
+        }
+        let c2 = q[2] * q[2] / r2;
+        let mut k =
+            self.ring_of_c2[((c2 * RING_TABLE as f32) as usize).min(RING_TABLE - 1)] as usize;
+        while k > 0 && c2 > self.cos2_edge[k] {
+            k -= 1;
+        }
+        while k + 1 < self.n_theta && c2 <= self.cos2_edge[k + 1] {
+            k += 1;
+        }
+        let a = atan2_approx(q[1], q[0]);
+        let mut l = self.sector_of(a);
+        // Corrections: q must lie on or after edge l and before edge l + 1.
+        let cross = |e: [f32; 2]| e[0] * q[1] - e[1] * q[0];
+        for _ in 0..4 {
+            if cross(self.phi_edge[l]) < 0.0 {
+                l = if l == 0 { self.n_phi - 1 } else { l - 1 };
+            } else if cross(self.phi_edge[l + 1]) >= 0.0 {
+                l = if l + 1 == self.n_phi { 0 } else { l + 1 };
+            } else {
+                break;
+            }
+        }
+        Some(k * self.n_phi + l)
+    }
+}
+
+/// Size of [`CellTrig::ring_of_c2`].
+const RING_TABLE: usize = 1 << 14;
+
+/// atan2 in [0, 2π) to about 1e-5 rad (a minimax polynomial on [0, 1], by octant).
+#[inline]
+fn atan2_approx(y: f32, x: f32) -> f32 {
+    use std::f32::consts::{FRAC_PI_2, PI, TAU};
+    let (ax, ay) = (x.abs(), y.abs());
+    let (lo, hi) = if ax > ay { (ay, ax) } else { (ax, ay) };
+    if hi == 0.0 {
+        return 0.0;
+    }
+    let z = lo / hi;
+    let z2 = z * z;
+    let mut a = z
+        * (0.999_977_26
+            + z2 * (-0.332_623_47
+                + z2 * (0.193_543_46
+                    + z2 * (-0.116_432_87 + z2 * (0.052_653_32 + z2 * -0.011_721_2)))));
+    if ay > ax {
+        a = FRAC_PI_2 - a;
+    }
+    if x < 0.0 {
+        a = PI - a;
+    }
+    if y < 0.0 {
+        a = TAU - a;
+    }
+    a
+}
+
+/// The motion from `from`'s centre to `to`'s, in their polygon's frame.
+pub(crate) fn motion(scene: &Scene, from: PatchId, to: PatchId) -> Motion {
+    let (a, b) = (
+        &scene.patches()[from as usize],
+        &scene.patches()[to as usize],
+    );
+    let frame = scene.polygons()[a.polygon as usize].frame();
+    let d = frame.local_from_world(b.center - a.center);
+    Motion::new([d.x as f64, d.y as f64, d.z as f64])
+}
+
+/// Splats every point of `src` (and its boundary lists) into `(ids, zbuf)` as seen
+/// from C1 + `m`, the nearest winning (the first writer on ties); `value(id)` is what a
+/// cell records. Points at infinity (escaped rays) do not move.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn splat(
+    hemi: &Hemisphere,
+    trig: &CellTrig,
+    src: &SourceHemisphere,
+    m: &Motion,
+    config: &EstimatorConfig,
+    value: impl Fn(PatchId) -> PatchId,
+    ids: &mut Vec<PatchId>,
+    zbuf: &mut Vec<f32>,
+) {
+    let n_phi = hemi.n_phi();
+    ids.clear();
+    ids.resize(hemi.n_cells(), HOLE);
+    zbuf.clear();
+    zbuf.resize(hemi.n_cells(), f32::INFINITY);
+    let d = [m.d[0] as f32, m.d[1] as f32, m.d[2] as f32];
+    let len = m.len as f32;
+    // Per sector: d·(cosφ, sinφ, 0) and d·(−sinφ, cosφ, 0), for the first-order formulas.
+    let a: Vec<f32> = (0..n_phi)
+        .map(|j| d[0] * trig.cp[j] + d[1] * trig.sp[j])
+        .collect();
+    let b: Vec<f32> = (0..n_phi)
+        .map(|j| -d[0] * trig.sp[j] + d[1] * trig.cp[j])
+        .collect();
+    let (threshold, lateral) = match config.reprojection {
+        Reprojection::Exact => (f32::INFINITY, true),
+        Reprojection::FirstOrder { test, threshold } => {
+            (threshold as f32, test == ThresholdTest::Lateral)
+        }
+    };
+    // Two passes a ring: destinations (independent, so the CPU overlaps them), then the
+    // z-buffered writes. The z-buffer holds squared distances until the end.
+    let mut dest = vec![NOWHERE; n_phi];
+    let mut dist2 = vec![0.0f32; n_phi];
+    let project = |i: usize, j: usize, r: f32| -> (u32, f32) {
+        let (st, ct) = (trig.st[i], trig.ct[i]);
+        let far_scale = if lateral {
+            st
+        } else if st >= 0.05 {
+            1.0
+        } else {
+            0.0
+        };
+        if !r.is_finite() {
+            ((i * n_phi + j) as u32, f32::INFINITY)
+        } else if r * far_scale > threshold * len {
+            // First order (1), Δ = −d: θ' = θ + Δ·e_θ / R, φ' = φ + Δ·e_φ / (R sinθ).
+            let mut t2 = trig.theta[i] - (ct * a[j] - st * d[2]) / r;
+            let mut p2 = trig.phi[j] - b[j] / (r * st);
+            if t2 < 0.0 {
+                t2 = -t2;
+                p2 += std::f32::consts::PI;
+            }
+            let r2 = r - (st * a[j] + ct * d[2]);
+            if t2 < std::f32::consts::FRAC_PI_2 {
+                let k = ((t2 * trig.inv_d_theta) as usize).min(trig.n_theta - 1);
+                ((k * n_phi + trig.sector_of(p2)) as u32, r2 * r2)
+            } else {
+                (NOWHERE, 0.0)
+            }
+        } else {
+            let q = [
+                r * st * trig.cp[j] - d[0],
+                r * st * trig.sp[j] - d[1],
+                r * ct - d[2],
+            ];
+            let r2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+            (trig.cell_of_vector(q, r2).map_or(NOWHERE, |c| c as u32), r2)
+        }
+    };
+    let mut put = |cell: u32, r2: f32, id: PatchId| {
+        if cell != NOWHERE {
+            let cell = cell as usize;
+            if r2 < zbuf[cell] || (ids[cell] == HOLE && r2 == f32::INFINITY) {
+                zbuf[cell] = r2;
+                ids[cell] = value(id);
+            }
+        }
+    };
+    for i in 0..hemi.n_theta() {
+        let ring = i * n_phi;
+        for j in 0..n_phi {
+            (dest[j], dist2[j]) = project(i, j, src.items.dist[ring + j]);
+        }
+        for j in 0..n_phi {
+            put(dest[j], dist2[j], src.items.patch[ring + j]);
+            for &(id, r) in src.list(ring + j) {
+                let (cell, r2) = project(i, j, r);
+                put(cell, r2, id);
+            }
+        }
+    }
+    for z in zbuf.iter_mut() {
+        *z = z.sqrt();
+    }
+}
+
+/// No destination: the point left the hemisphere.
+const NOWHERE: u32 = u32::MAX;
+
+/// Fills holes in `ids` (marked `HOLE`) by `fill`; `source(c)` is H1's entry of cell
+/// `c`. Returns the number of holes and their form factor.
+pub(crate) fn fill_holes(
+    hemi: &Hemisphere,
+    ids: &mut [PatchId],
+    fill: HoleFill,
+    source: impl Fn(usize) -> PatchId,
+) -> (usize, f64) {
+    let n = hemi.n_phi();
+    let (mut holes, mut hole_ff) = (0, 0.0);
+    // Per ring: distance to and value of the nearest written cell on each side.
+    let mut left: Vec<(usize, PatchId)> = vec![(usize::MAX, HOLE); n];
+    for (i, ff) in hemi.ring_form_factors().iter().enumerate() {
+        let ring = &mut ids[i * n..(i + 1) * n];
+        let n_holes = ring.iter().filter(|&&id| id == HOLE).count();
+        if n_holes == 0 {
+            continue;
+        }
+        holes += n_holes;
+        hole_ff += n_holes as f64 * ff;
+        if fill == HoleFill::KeepSource || n_holes == n {
+            for (j, id) in ring.iter_mut().enumerate() {
+                if *id == HOLE {
+                    *id = source(i * n + j);
+                }
+            }
+            continue;
+        }
+        // Nearest written cell of the ring, wrapping: a sweep each way over two turns.
+        let mut last = (0usize, HOLE, false);
+        for turn in 0..2 {
+            for j in 0..n {
+                let k = turn * n + j;
+                if ring[j] != HOLE {
+                    last = (k, ring[j], true);
+                }
+                if turn == 1 {
+                    left[j] = if last.2 {
+                        (k - last.0, last.1)
+                    } else {
+                        (usize::MAX, HOLE)
+                    };
+                }
+            }
+        }
+        let mut next = (0usize, HOLE, false);
+        for turn in (0..2).rev() {
+            for j in (0..n).rev() {
+                let k = turn * n + j;
+                if ring[j] != HOLE {
+                    next = (k, ring[j], true);
+                }
+                if turn == 0 && ring[j] == HOLE {
+                    let right = if next.2 {
+                        (next.0 - k, next.1)
+                    } else {
+                        (usize::MAX, HOLE)
+                    };
+                    // The lower φ (left) wins ties, as a search alternating left first would.
+                    ring[j] = if left[j].0 <= right.0 {
+                        left[j].1
+                    } else {
+                        right.1
+                    };
+                }
+            }
+        }
+    }
+    (holes, hole_ff)
+}
+
+/// Estimates hemispheres of one resolution: holds the per-cell tables.
+#[derive(Clone, Debug)]
+pub struct Estimator<'h> {
+    pub(crate) hemi: &'h Hemisphere,
+    pub(crate) trig: CellTrig,
+}
+
+impl<'h> Estimator<'h> {
+    pub fn new(hemi: &'h Hemisphere) -> Estimator<'h> {
+        Estimator {
+            hemi,
+            trig: CellTrig::new(hemi),
+        }
+    }
+
+    pub fn hemisphere(&self) -> &'h Hemisphere {
+        self.hemi
+    }
+
+    /// Estimates H2 at patch `to` from `src`, the report's way (no rays).
+    pub fn faithful(
+        &self,
+        scene: &Scene,
+        src: &SourceHemisphere,
+        to: PatchId,
+        config: &EstimatorConfig,
+    ) -> Estimate {
+        estimate_faithful_with(scene, self.hemi, &self.trig, src, to, config)
+    }
+}
+
+pub(crate) fn estimate_faithful_with(
+    scene: &Scene,
+    hemi: &Hemisphere,
+    trig: &CellTrig,
+    src: &SourceHemisphere,
+    to: PatchId,
+    config: &EstimatorConfig,
+) -> Estimate {
+    let m = motion(scene, src.patch, to);
+    let mut out = Estimate::default();
+    splat(
+        hemi,
+        trig,
+        src,
+        &m,
+        config,
+        |id| id,
+        &mut out.items.patch,
+        &mut out.items.dist,
+    );
+    let (holes, hole_ff) = fill_holes(hemi, &mut out.items.patch, config.fill, |c| {
+        src.items.patch[c]
+    });
+    out.holes = holes;
+    out.hole_ff = hole_ff;
+    out
+}

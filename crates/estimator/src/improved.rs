@@ -1,0 +1,141 @@
+//! Visibility estimation: reproject the polygon each cell sees, then resolve every cell
+//! of H2 with its own ray against the polygons guessed for it and its 8 neighbours.
+
+use crate::config::{EstimatorConfig, HoleFill};
+use crate::faithful::{fill_holes, motion, splat, CellTrig, Estimator, HOLE};
+use crate::source::SourceHemisphere;
+use rad_core::{PatchId, Ray, RayCast};
+use rad_geometry::Scene;
+use rad_hemisphere::{Hemisphere, ItemBuffer, BACK, ESCAPED};
+
+/// An estimated hemisphere from the improved mode.
+#[derive(Clone, Debug, Default)]
+pub struct ImprovedEstimate {
+    pub items: ItemBuffer,
+    /// Cells nothing landed in, before filling.
+    pub holes: usize,
+    /// Cells whose guessed polygons all missed, resolved by a real ray.
+    pub real_rays: usize,
+    /// Ray–polygon tests made (without the real rays' own).
+    pub tests: usize,
+}
+
+/// Polygon guessed for a cell whose source saw no polygon (escaped or back-facing).
+const NO_GUESS: u32 = u32::MAX;
+
+impl Estimator<'_> {
+    /// Estimates H2 at patch `to` from `src` by visibility estimation.
+    pub fn improved<C: RayCast>(
+        &self,
+        scene: &Scene,
+        caster: &C,
+        src: &SourceHemisphere,
+        to: PatchId,
+        config: &EstimatorConfig,
+        scratch: &mut C::Scratch,
+    ) -> ImprovedEstimate {
+        estimate_improved_with(
+            scene, caster, self.hemi, &self.trig, src, to, config, scratch,
+        )
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn estimate_improved_with<C: RayCast>(
+    scene: &Scene,
+    caster: &C,
+    hemi: &Hemisphere,
+    trig: &CellTrig,
+    src: &SourceHemisphere,
+    to: PatchId,
+    config: &EstimatorConfig,
+    scratch: &mut C::Scratch,
+) -> ImprovedEstimate {
+    let m = motion(scene, src.patch, to);
+    let polygon_of = |id: PatchId| {
+        if id == ESCAPED || id == BACK {
+            NO_GUESS
+        } else {
+            scene.patches()[id as usize].polygon
+        }
+    };
+    // 1. Splat polygons (z-buffered), fill holes with the ring neighbour's polygon.
+    let mut guess = Vec::new();
+    let mut zbuf = Vec::new();
+    splat(
+        hemi, trig, src, &m, config, polygon_of, &mut guess, &mut zbuf,
+    );
+    let (holes, _) = fill_holes(hemi, &mut guess, HoleFill::RingNeighbour, |c| {
+        polygon_of(src.items.patch[c])
+    });
+    // 2. Resolve each cell with its own ray.
+    let target = &scene.patches()[to as usize];
+    let own = target.polygon;
+    let polygons = scene.polygons();
+    let frame = polygons[own as usize].frame();
+    let o = target.center;
+    let (n_theta, n_phi) = (hemi.n_theta(), hemi.n_phi());
+    let mut out = ImprovedEstimate {
+        holes,
+        ..Default::default()
+    };
+    out.items.patch.reserve(hemi.n_cells());
+    out.items.dist.reserve(hemi.n_cells());
+    let mut ray = Ray::new(o, frame.n);
+    ray.skip = own;
+    // Each candidate polygon's terms for this origin, computed once.
+    let mut terms_of: Vec<Option<[f32; 3]>> = vec![None; polygons.len()];
+    for i in 0..n_theta {
+        for j in 0..n_phi {
+            let d = frame.world_from_local(hemi.directions()[i * n_phi + j]);
+            // Candidates: this cell's guess and its 8 neighbours' (φ wraps, θ clamps).
+            let mut cand = [NO_GUESS; 9];
+            let mut n_cand = 0;
+            for di in [0i64, -1, 1] {
+                let ii = i as i64 + di;
+                if ii < 0 || ii >= n_theta as i64 {
+                    continue;
+                }
+                for dj in [0i64, -1, 1] {
+                    let jj = (j as i64 + dj).rem_euclid(n_phi as i64) as usize;
+                    let g = guess[ii as usize * n_phi + jj];
+                    if g != NO_GUESS && g != HOLE && g != own && !cand[..n_cand].contains(&g) {
+                        cand[n_cand] = g;
+                        n_cand += 1;
+                    }
+                }
+            }
+            // The nearest front-facing hit; ties go to the lower polygon id, as in the grid.
+            cand[..n_cand].sort_unstable();
+            let mut best: Option<(f32, u32, f32, f32)> = None;
+            for &p in &cand[..n_cand] {
+                out.tests += 1;
+                let t_max = best.map_or(f32::INFINITY, |b| b.0);
+                let terms = *terms_of[p as usize]
+                    .get_or_insert_with(|| polygons[p as usize].origin_terms(o));
+                if let Some((t, u, v, true)) = polygons[p as usize].intersect_from(terms, d, t_max)
+                {
+                    best = Some((t, p, u, v));
+                }
+            }
+            let (id, dist) = match best {
+                Some((t, p, u, v)) => (polygons[p as usize].patch_at(u, v), t),
+                None => {
+                    out.real_rays += 1;
+                    ray.dir = d;
+                    match caster.closest_hit(&ray, scratch) {
+                        Some(h) if h.front => {
+                            (polygons[h.polygon as usize].patch_at(h.u, h.v), h.t)
+                        }
+                        Some(h) => (BACK, h.t),
+                        None => (ESCAPED, f32::INFINITY),
+                    }
+                }
+            };
+            out.items.patch.push(id);
+            out.items.dist.push(dist);
+        }
+    }
+    let _ = config;
+    out
+}

@@ -1,0 +1,43 @@
+//! Hemispheres estimated from a neighbour's by a small motion (the report's §3, with
+//! DESIGN.md §2's formulas (1)), and an improvement that estimates visibility instead of
+//! patch ids.
+//!
+//! - [`SourceHemisphere`]: an exact hemisphere H1 kept for estimation: ids, distances,
+//!   and the boundary lists of §3.5.2.
+//! - [`reproject`]: where a point seen from C1 lands in H2 (exact or first order).
+//! - [`Estimator::faithful`]: the report's method: z-buffered splats, then hole filling.
+//! - [`Estimator::improved`]: splat polygons, then resolve each cell with its own ray
+//!   against the polygons guessed for it and its 8 neighbours.
+//! - [`windows`]: the 3 × 3 window schedule of §3.6; [`estimate_rows`] runs it all.
+
+mod config;
+mod driver;
+mod faithful;
+mod improved;
+mod reproject;
+mod schedule;
+mod source;
+
+pub use config::{EstimatorConfig, HoleFill, Mode, Reprojection, ThresholdTest};
+pub use driver::{estimate_rows, EstimateStats, EstimatedRow, Source};
+pub use faithful::{Estimate, Estimator};
+pub use improved::ImprovedEstimate;
+pub use reproject::{reproject, reproject_exact, reproject_first_order, Motion, Reprojected};
+pub use schedule::{windows, Window};
+pub use source::SourceHemisphere;
+
+/// Errors of estimation.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    #[error(transparent)]
+    Hemisphere(#[from] rad_hemisphere::Error),
+    #[error("estimator setting {name} = {value} is invalid: {rule}")]
+    Config {
+        name: &'static str,
+        value: f64,
+        rule: &'static str,
+    },
+    #[error("patches {from} and {to} are not on the same polygon: a hemisphere is estimated only from a neighbour on its own polygon")]
+    NotSamePolygon { from: u32, to: u32 },
+}

@@ -1,0 +1,80 @@
+//! The exact hemisphere H1 kept for estimation: what each cell sees, how far, and the
+//! boundary lists of §3.5.2.
+
+use rad_core::{PatchId, Ray, RayCast};
+use rad_geometry::Scene;
+use rad_hemisphere::{Hemisphere, ItemBuffer, BACK, ESCAPED};
+
+/// An exact hemisphere with, where asked, boundary lists: a cell whose closest hit is a
+/// patch on its polygon's boundary keeps every further front-facing patch its ray
+/// crosses up to the scene's bound, with its distance.
+#[derive(Clone, Debug, Default)]
+pub struct SourceHemisphere {
+    pub patch: PatchId,
+    /// What each cell sees (a patch, `ESCAPED` or `BACK`) and how far.
+    pub items: ItemBuffer,
+    /// CSR boundary lists: the extra entries of cell `c` are
+    /// `list[list_start[c]..list_start[c + 1]]`; empty when lists are off.
+    pub list_start: Vec<u32>,
+    pub list: Vec<(PatchId, f32)>,
+}
+
+impl SourceHemisphere {
+    /// Casts the exact hemisphere of `patch` (and its boundary lists if asked).
+    pub fn cast<C: RayCast>(
+        scene: &Scene,
+        caster: &C,
+        hemi: &Hemisphere,
+        patch: PatchId,
+        boundary_lists: bool,
+        scratch: &mut C::Scratch,
+    ) -> SourceHemisphere {
+        let mut out = SourceHemisphere {
+            patch,
+            ..Default::default()
+        };
+        hemi.cast(scene, caster, patch, scratch, &mut out.items);
+        if boundary_lists {
+            out.add_boundary_lists(scene, caster, hemi, scratch);
+        }
+        out
+    }
+
+    fn add_boundary_lists<C: RayCast>(
+        &mut self,
+        scene: &Scene,
+        caster: &C,
+        hemi: &Hemisphere,
+        scratch: &mut C::Scratch,
+    ) {
+        let p = &scene.patches()[self.patch as usize];
+        let frame = scene.polygons()[p.polygon as usize].frame();
+        let mut hits = Vec::new();
+        self.list_start.clear();
+        self.list_start.reserve(hemi.n_cells() + 1);
+        self.list_start.push(0);
+        let mut ray = Ray::new(p.center, frame.n);
+        ray.skip = p.polygon;
+        for (c, &id) in self.items.patch.iter().enumerate() {
+            if id != ESCAPED && id != BACK && scene.patches()[id as usize].on_boundary {
+                ray.dir = frame.world_from_local(hemi.directions()[c]);
+                caster.all_hits(&ray, scratch, &mut hits);
+                let first = self.items.dist[c];
+                for h in hits.iter().filter(|h| h.front && h.t > first) {
+                    let q = scene.polygons()[h.polygon as usize].patch_at(h.u, h.v);
+                    self.list.push((q, h.t));
+                }
+            }
+            self.list_start.push(self.list.len() as u32);
+        }
+    }
+
+    /// The boundary-list entries of cell `c` (empty without lists).
+    #[inline]
+    pub fn list(&self, c: usize) -> &[(PatchId, f32)] {
+        if self.list_start.is_empty() {
+            return &[];
+        }
+        &self.list[self.list_start[c] as usize..self.list_start[c + 1] as usize]
+    }
+}

@@ -1,0 +1,4 @@
+//! Integration tests of rad-estimator.
+
+mod props;
+mod scenes;

@@ -1,0 +1,367 @@
+//! The estimation-error experiment (report §4 and DESIGN.md §2): every estimated patch
+//! against our exact hemisphere of that patch, for each estimator setting.
+
+use crate::accuracy::lambert;
+use crate::stats::Summary;
+use crate::{default_grid, Error};
+use rad_accel::VoxelGrid;
+use rad_core::{PatchId, RayCast};
+use rad_estimator::{
+    windows, Estimator, EstimatorConfig, HoleFill, Mode, Reprojection, SourceHemisphere,
+    ThresholdTest, Window,
+};
+use rad_geometry::Scene;
+use rad_hemisphere::{Hemisphere, HemisphereConfig, ItemBuffer, Row, RowAccumulator};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::time::Instant;
+
+/// A named estimator setting.
+#[derive(Clone, Debug)]
+pub struct Setting {
+    pub name: String,
+    pub config: EstimatorConfig,
+}
+
+/// The settings compared: faithful mode with each fill policy and reprojection rule,
+/// improved mode with each real-ray threshold; each with and without boundary lists.
+pub fn settings(quick: bool) -> Vec<Setting> {
+    let mut out = Vec::new();
+    let reproj: Vec<(&str, Reprojection)> = vec![
+        ("exact", Reprojection::Exact),
+        (
+            "first-order R/d>10",
+            Reprojection::FirstOrder {
+                test: ThresholdTest::Distance,
+                threshold: 10.0,
+            },
+        ),
+        (
+            "first-order R sin/d>10",
+            Reprojection::FirstOrder {
+                test: ThresholdTest::Lateral,
+                threshold: 10.0,
+            },
+        ),
+    ];
+    for bl in [false, true] {
+        let bl_name = if bl { ", lists" } else { "" };
+        for (fill_name, fill) in [
+            ("keep H1", HoleFill::KeepSource),
+            ("ring neighbour", HoleFill::RingNeighbour),
+        ] {
+            for (r_name, r) in &reproj {
+                if quick && (fill == HoleFill::KeepSource || !matches!(r, Reprojection::Exact)) {
+                    continue;
+                }
+                out.push(Setting {
+                    name: format!("faithful, {r_name}, {fill_name}{bl_name}"),
+                    config: EstimatorConfig {
+                        mode: Mode::Faithful,
+                        fill,
+                        reprojection: *r,
+                        boundary_lists: bl,
+                        max_real_ray_share: 1.0,
+                    },
+                });
+            }
+        }
+        for share in [0.02, 0.05, 0.10] {
+            if quick && share != 0.05 {
+                continue;
+            }
+            out.push(Setting {
+                name: format!("improved, real rays <= {:.0} %{bl_name}", share * 100.0),
+                config: EstimatorConfig {
+                    mode: Mode::Improved,
+                    fill: HoleFill::RingNeighbour,
+                    reprojection: Reprojection::FirstOrder {
+                        test: ThresholdTest::Lateral,
+                        threshold: 10.0,
+                    },
+                    boundary_lists: bl,
+                    max_real_ray_share: share,
+                },
+            });
+        }
+    }
+    out
+}
+
+/// Errors of one estimated row against its exact row.
+#[derive(Clone, Copy, Debug, Default)]
+struct RowError {
+    /// Mean over the exact row's targets of |F_e − F| / F (the report's metric).
+    rel: f64,
+    l1: f64,
+    l1_polygon: f64,
+    /// Against Lambert's point-to-patch values (cube only).
+    rel_lambert: f64,
+    /// This patch's own noise: L1 between two equally valid exact hemispheres.
+    noise_l1: f64,
+    interior: bool,
+    holes: f64,
+    real_rays: f64,
+    fallback: bool,
+}
+
+/// Aggregates over the estimated patches, overall and apart for patches inside a
+/// polygon and on its edges.
+#[derive(Clone, Debug, Serialize)]
+pub struct SettingResult {
+    pub setting: String,
+    pub mode: &'static str,
+    pub boundary_lists: bool,
+    pub rel_error: Summary,
+    pub rel_error_interior: Summary,
+    pub rel_error_edge: Summary,
+    pub l1: Summary,
+    pub l1_polygon: Summary,
+    pub rel_error_vs_lambert: Option<Summary>,
+    /// Share of estimated rows whose L1 is within their own noise.
+    pub within_noise: f64,
+    /// Mean share of H2's cells that were holes, before filling.
+    pub hole_fraction: f64,
+    /// Improved mode: real rays per estimated cell, and patches cast exactly instead.
+    pub real_ray_fraction: f64,
+    pub fallback_exact: usize,
+    pub seconds: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneEstimation {
+    pub scene: String,
+    pub resolution: [u32; 2],
+    pub windows: usize,
+    pub exact_hemispheres: usize,
+    pub estimated_hemispheres: usize,
+    /// Noise: L1 between exact and half-sector-turned exact rows of the estimated patches.
+    pub noise_l1: Summary,
+    pub noise_l1_polygon: Summary,
+    pub noise_rel: Summary,
+    pub results: Vec<SettingResult>,
+}
+
+fn rel_error(est: &Row, exact: &Row) -> f64 {
+    let targets: Vec<f64> = exact
+        .entries
+        .iter()
+        .map(|&(j, f)| (est.get(j) - f).abs() / f)
+        .collect();
+    targets.iter().sum::<f64>() / targets.len().max(1) as f64
+}
+
+fn l1(a: &Row, b: &Row) -> f64 {
+    let mut s = 0.0;
+    let (mut i, mut j) = (0, 0);
+    while i < a.entries.len() || j < b.entries.len() {
+        match (a.entries.get(i), b.entries.get(j)) {
+            (Some(x), Some(y)) if x.0 == y.0 => {
+                s += (x.1 - y.1).abs();
+                i += 1;
+                j += 1;
+            }
+            (Some(x), Some(y)) if x.0 < y.0 => {
+                s += x.1;
+                i += 1;
+            }
+            (Some(_), Some(y)) => {
+                s += y.1;
+                j += 1;
+            }
+            (Some(x), None) => {
+                s += x.1;
+                i += 1;
+            }
+            (None, Some(y)) => {
+                s += y.1;
+                j += 1;
+            }
+            (None, None) => break,
+        }
+    }
+    s + (a.back - b.back).abs() + (a.escaped - b.escaped).abs()
+}
+
+fn per_polygon(scene: &Scene, r: &Row) -> Vec<f64> {
+    let mut v = vec![0.0; scene.polygons().len()];
+    for &(j, f) in &r.entries {
+        v[scene.patches()[j as usize].polygon as usize] += f;
+    }
+    v
+}
+
+fn l1_polygon(scene: &Scene, a: &Row, b: &Row) -> f64 {
+    per_polygon(scene, a)
+        .iter()
+        .zip(per_polygon(scene, b))
+        .map(|(x, y)| (x - y).abs())
+        .sum()
+}
+
+/// Runs the experiment on `scene` for the windows of `polygons` (all if None).
+pub fn scene_estimation(
+    name: &str,
+    scene: &Scene,
+    resolution: (u32, u32),
+    polygons: Option<&[u32]>,
+    with_lambert: bool,
+    settings: &[Setting],
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<SceneEstimation, Error> {
+    let grid = VoxelGrid::build(scene, &default_grid())?;
+    let hemi = Hemisphere::new(HemisphereConfig::exact(resolution.0, resolution.1))?;
+    let turned = Hemisphere::new(HemisphereConfig {
+        phi_shift: 0.5,
+        ..HemisphereConfig::exact(resolution.0, resolution.1)
+    })?;
+    let n = scene.patches().len();
+    let wins: Vec<Window> = windows(scene)
+        .into_iter()
+        .filter(|w| {
+            polygons.is_none_or(|ps| ps.contains(&scene.patches()[w.centre as usize].polygon))
+        })
+        .collect();
+    // Sources with boundary lists (cleared for settings without), exact and noise rows.
+    let sources: Vec<SourceHemisphere> = wins
+        .par_iter()
+        .map_init(
+            || grid.new_scratch(),
+            |s, w| SourceHemisphere::cast(scene, &grid, &hemi, w.centre, true, s),
+        )
+        .collect();
+    let targets: Vec<(usize, PatchId)> = wins
+        .iter()
+        .enumerate()
+        .flat_map(|(k, w)| w.estimated.iter().map(move |&p| (k, p)))
+        .collect();
+    let reference: Vec<(Row, Row)> = targets
+        .par_iter()
+        .map_init(
+            || {
+                (
+                    grid.new_scratch(),
+                    ItemBuffer::default(),
+                    RowAccumulator::new(n),
+                )
+            },
+            |(s, buf, acc), &(_, p)| {
+                hemi.cast(scene, &grid, p, s, buf);
+                let exact = hemi.row_from_items(p, buf, acc);
+                turned.cast(scene, &grid, p, s, buf);
+                (exact, turned.row_from_items(p, buf, acc))
+            },
+        )
+        .collect();
+    progress(1, settings.len() + 1);
+    let est = Estimator::new(&hemi);
+    let mut results = Vec::new();
+    for (k, setting) in settings.iter().enumerate() {
+        let t = Instant::now();
+        let cfg = &setting.config;
+        let errs: Vec<RowError> = targets
+            .par_iter()
+            .zip(&reference)
+            .map_init(
+                || (grid.new_scratch(), RowAccumulator::new(n)),
+                |(s, acc), (&(w, p), (exact, noise))| {
+                    let stripped;
+                    let src = if cfg.boundary_lists {
+                        &sources[w]
+                    } else {
+                        stripped = SourceHemisphere {
+                            list_start: Vec::new(),
+                            list: Vec::new(),
+                            ..sources[w].clone()
+                        };
+                        &stripped
+                    };
+                    let (items, holes, real, fallback) = match cfg.mode {
+                        Mode::Faithful => {
+                            let e = est.faithful(scene, src, p, cfg);
+                            (e.items, e.holes, 0, false)
+                        }
+                        Mode::Improved => {
+                            let e = est.improved(scene, &grid, src, p, cfg, s);
+                            let fb =
+                                e.real_rays as f64 > cfg.max_real_ray_share * hemi.n_cells() as f64;
+                            (e.items, e.holes, e.real_rays, fb)
+                        }
+                    };
+                    let row = if fallback {
+                        exact.clone()
+                    } else {
+                        hemi.row_from_items(p, &items, acc)
+                    };
+                    let rel_lambert = if with_lambert {
+                        let own = scene.patches()[p as usize].polygon;
+                        let (mut sum, mut count) = (0.0, 0);
+                        for (q, target) in scene.patches().iter().enumerate() {
+                            if target.polygon != own {
+                                let f = lambert(scene, p as usize, q);
+                                sum += (row.get(q as u32) - f).abs() / f;
+                                count += 1;
+                            }
+                        }
+                        sum / count.max(1) as f64
+                    } else {
+                        0.0
+                    };
+                    RowError {
+                        rel: rel_error(&row, exact),
+                        l1: l1(&row, exact),
+                        l1_polygon: l1_polygon(scene, &row, exact),
+                        rel_lambert,
+                        noise_l1: l1(noise, exact),
+                        interior: !scene.patches()[p as usize].on_boundary,
+                        holes: holes as f64 / hemi.n_cells() as f64,
+                        real_rays: real as f64 / hemi.n_cells() as f64,
+                        fallback,
+                    }
+                },
+            )
+            .collect();
+        let pick = |f: &dyn Fn(&RowError) -> Option<f64>| {
+            Summary::of(&errs.iter().filter_map(f).collect::<Vec<_>>())
+        };
+        results.push(SettingResult {
+            setting: setting.name.clone(),
+            mode: match cfg.mode {
+                Mode::Faithful => "faithful",
+                Mode::Improved => "improved",
+            },
+            boundary_lists: cfg.boundary_lists,
+            rel_error: pick(&|e| Some(e.rel)),
+            rel_error_interior: pick(&|e| e.interior.then_some(e.rel)),
+            rel_error_edge: pick(&|e| (!e.interior).then_some(e.rel)),
+            l1: pick(&|e| Some(e.l1)),
+            l1_polygon: pick(&|e| Some(e.l1_polygon)),
+            rel_error_vs_lambert: with_lambert.then(|| pick(&|e| Some(e.rel_lambert))),
+            within_noise: errs.iter().filter(|e| e.l1 <= e.noise_l1).count() as f64
+                / errs.len().max(1) as f64,
+            hole_fraction: errs.iter().map(|e| e.holes).sum::<f64>() / errs.len().max(1) as f64,
+            real_ray_fraction: errs.iter().map(|e| e.real_rays).sum::<f64>()
+                / errs.len().max(1) as f64,
+            fallback_exact: errs.iter().filter(|e| e.fallback).count(),
+            seconds: t.elapsed().as_secs_f64(),
+        });
+        progress(k + 2, settings.len() + 1);
+    }
+    let noise_l1: Vec<f64> = reference.iter().map(|(e, n)| l1(n, e)).collect();
+    let noise_l1_polygon: Vec<f64> = reference
+        .iter()
+        .map(|(e, n)| l1_polygon(scene, n, e))
+        .collect();
+    let noise_rel: Vec<f64> = reference.iter().map(|(e, n)| rel_error(n, e)).collect();
+    Ok(SceneEstimation {
+        scene: name.to_string(),
+        resolution: [resolution.0, resolution.1],
+        windows: wins.len(),
+        exact_hemispheres: wins.len(),
+        estimated_hemispheres: targets.len(),
+        noise_l1: Summary::of(&noise_l1),
+        noise_l1_polygon: Summary::of(&noise_l1_polygon),
+        noise_rel: Summary::of(&noise_rel),
+        results,
+    })
+}
