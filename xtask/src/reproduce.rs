@@ -48,6 +48,7 @@ pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Resul
     };
     write("cube_accuracy.json", r.cube_json(&provenance))?;
     write("loft_checks.json", r.loft_json(&provenance))?;
+    write("cube_error.json", r.estimation_json(&provenance))?;
     write("REPORT.md", r.report(&provenance, wall))?;
     eprintln!("done in {wall:.1} s");
     Ok(())

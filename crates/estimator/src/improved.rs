@@ -89,19 +89,32 @@ pub(crate) fn estimate_improved_with<C: RayCast>(
         for j in 0..n_phi {
             let d = frame.world_from_local(hemi.directions()[i * n_phi + j]);
             // Candidates: this cell's guess and its 8 neighbours' (φ wraps, θ clamps).
+            let (jl, jr) = (
+                if j == 0 { n_phi - 1 } else { j - 1 },
+                if j + 1 == n_phi { 0 } else { j + 1 },
+            );
+            let rows = [i.saturating_sub(1), i, (i + 1).min(n_theta - 1)];
             let mut cand = [NO_GUESS; 9];
             let mut n_cand = 0;
-            for di in [0i64, -1, 1] {
-                let ii = i as i64 + di;
-                if ii < 0 || ii >= n_theta as i64 {
-                    continue;
+            let g0 = guess[i * n_phi + j];
+            // Fast path: the whole 3 × 3 block guesses one polygon (most cells).
+            let uniform = rows.iter().all(|&r| {
+                let b = r * n_phi;
+                guess[b + jl] == g0 && guess[b + j] == g0 && guess[b + jr] == g0
+            });
+            if uniform {
+                if g0 != NO_GUESS && g0 != HOLE && g0 != own {
+                    cand[0] = g0;
+                    n_cand = 1;
                 }
-                for dj in [0i64, -1, 1] {
-                    let jj = (j as i64 + dj).rem_euclid(n_phi as i64) as usize;
-                    let g = guess[ii as usize * n_phi + jj];
-                    if g != NO_GUESS && g != HOLE && g != own && !cand[..n_cand].contains(&g) {
-                        cand[n_cand] = g;
-                        n_cand += 1;
+            } else {
+                for r in rows {
+                    for jj in [jl, j, jr] {
+                        let g = guess[r * n_phi + jj];
+                        if g != NO_GUESS && g != HOLE && g != own && !cand[..n_cand].contains(&g) {
+                            cand[n_cand] = g;
+                            n_cand += 1;
+                        }
                     }
                 }
             }

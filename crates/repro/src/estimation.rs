@@ -54,6 +54,10 @@ pub fn settings(quick: bool) -> Vec<Setting> {
                 if quick && (fill == HoleFill::KeepSource || !matches!(r, Reprojection::Exact)) {
                     continue;
                 }
+                // With lists, only the ring-neighbour settings (the others gain as much).
+                if bl && fill == HoleFill::KeepSource {
+                    continue;
+                }
                 out.push(Setting {
                     name: format!("faithful, {r_name}, {fill_name}{bl_name}"),
                     config: EstimatorConfig {
@@ -67,7 +71,7 @@ pub fn settings(quick: bool) -> Vec<Setting> {
             }
         }
         for share in [0.02, 0.05, 0.10] {
-            if quick && share != 0.05 {
+            if (quick || bl) && share != 0.05 {
                 continue;
             }
             out.push(Setting {
@@ -86,6 +90,111 @@ pub fn settings(quick: bool) -> Vec<Setting> {
         }
     }
     out
+}
+
+/// The settings run on the loft (fewer: each costs about ten seconds there): faithful
+/// mode with exact and both first-order rules, improved mode at each threshold, and
+/// both modes' defaults with boundary lists.
+pub fn loft_settings(quick: bool) -> Vec<Setting> {
+    let keep = [
+        "faithful, exact, ring neighbour",
+        "faithful, first-order R/d>10, ring neighbour",
+        "faithful, first-order R sin/d>10, ring neighbour",
+        "faithful, first-order R sin/d>10, ring neighbour, lists",
+        "improved, real rays <= 2 %",
+        "improved, real rays <= 5 %",
+        "improved, real rays <= 10 %",
+        "improved, real rays <= 5 %, lists",
+    ];
+    settings(false)
+        .into_iter()
+        .filter(|s| {
+            keep.contains(&s.name.as_str())
+                && (!quick
+                    || s.name.contains("<= 5 %")
+                    || s.name.ends_with("exact, ring neighbour"))
+        })
+        .collect()
+}
+
+/// Time of one hemisphere, one thread: exact and each mode's default estimate.
+#[derive(Clone, Debug, Serialize)]
+pub struct EstimationTiming {
+    pub scene: String,
+    pub resolution: [u32; 2],
+    pub hemispheres: usize,
+    pub median_ms_exact: f64,
+    pub median_ms_faithful: f64,
+    pub median_ms_improved: f64,
+    pub ratio_faithful: f64,
+    pub ratio_improved: f64,
+    /// Real rays the improved mode cast, per estimated hemisphere.
+    pub improved_real_rays_per_hemisphere: f64,
+}
+
+/// Times exact and estimated hemispheres over `k` windows spread across the scene, on
+/// one thread, one after the other in this process.
+pub fn timing(
+    name: &str,
+    scene: &Scene,
+    resolution: (u32, u32),
+    k: usize,
+) -> Result<EstimationTiming, Error> {
+    let grid = VoxelGrid::build(scene, &default_grid())?;
+    let hemi = Hemisphere::new(HemisphereConfig::exact(resolution.0, resolution.1))?;
+    let est = Estimator::new(&hemi);
+    let all = windows(scene);
+    let picked: Vec<&Window> = (0..k)
+        .map(|i| &all[i * all.len() / k])
+        .filter(|w| !w.estimated.is_empty())
+        .collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .map_err(|e| Error::Parse {
+            what: "thread pool",
+            input: "1".into(),
+            reason: e.to_string(),
+        })?;
+    let faithful = crate::default_estimator(Mode::Faithful);
+    let improved = crate::default_estimator(Mode::Improved);
+    Ok(pool.install(|| {
+        let mut s = grid.new_scratch();
+        let mut buf = ItemBuffer::default();
+        let (mut te, mut tf, mut ti, mut real) = (Vec::new(), Vec::new(), Vec::new(), 0usize);
+        for w in &picked {
+            let src = SourceHemisphere::cast(scene, &grid, &hemi, w.centre, false, &mut s);
+            for &p in &w.estimated {
+                let t = Instant::now();
+                hemi.cast(scene, &grid, p, &mut s, &mut buf);
+                te.push(t.elapsed().as_secs_f64());
+                let t = Instant::now();
+                std::hint::black_box(est.faithful(scene, &src, p, &faithful));
+                tf.push(t.elapsed().as_secs_f64());
+                let t = Instant::now();
+                real +=
+                    std::hint::black_box(est.improved(scene, &grid, &src, p, &improved, &mut s))
+                        .real_rays;
+                ti.push(t.elapsed().as_secs_f64());
+            }
+        }
+        let (e, f, i) = (
+            Summary::of(&te).median,
+            Summary::of(&tf).median,
+            Summary::of(&ti).median,
+        );
+        EstimationTiming {
+            scene: name.to_string(),
+            resolution: [resolution.0, resolution.1],
+            hemispheres: te.len(),
+            median_ms_exact: 1e3 * e,
+            median_ms_faithful: 1e3 * f,
+            median_ms_improved: 1e3 * i,
+            ratio_faithful: f / e,
+            ratio_improved: i / e,
+            improved_real_rays_per_hemisphere: real as f64 / ti.len().max(1) as f64,
+        }
+    }))
 }
 
 /// Errors of one estimated row against its exact row.

@@ -176,3 +176,40 @@ fn out_file_is_written_whole() {
         serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     assert!(v["patches"].as_array().unwrap().len() > 100);
 }
+
+#[test]
+fn estimated_form_factors_name_their_source() {
+    let scene = bench_scene("cube.json");
+    for estimator in ["faithful", "improved"] {
+        let v = json(&coherad(&[
+            "formfactors",
+            scene.to_str().unwrap(),
+            "--resolution",
+            "45x180",
+            "--patches",
+            "0-2,11",
+            "--method",
+            "estimated",
+            "--estimator",
+            estimator,
+        ]));
+        assert_eq!(v["method"], format!("estimated/{estimator}"));
+        let rows = v["rows"].as_array().unwrap();
+        // Floor cells (0..2, 0) are estimated from their window's centre, cell (1, 1) = patch 11.
+        for r in rows {
+            let p = r["patch"].as_u64().unwrap();
+            if p == 11 {
+                assert_eq!(r["source"], "exact");
+            } else {
+                assert_eq!(r["source"], 11, "patch {p}");
+            }
+            let sum: f64 = r["entries"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|e| e[1].as_f64().unwrap())
+                .sum();
+            assert!((sum - 1.0).abs() < 1e-9, "{sum}");
+        }
+    }
+}
