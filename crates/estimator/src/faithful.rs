@@ -89,7 +89,9 @@ impl CellTrig {
     pub fn sector_of(&self, phi: f32) -> usize {
         // Shifted by one turn so that truncation is floor for any phi ≥ −2π.
         let n = self.n_phi;
-        let mut l = (phi * self.inv_d_phi - self.shift + n as f32).max(0.0) as usize;
+        let x = (phi * self.inv_d_phi - self.shift + n as f32).max(0.0).min((4 * n) as f32);
+        // SAFETY: x is finite (max and min drop a NaN) and in [0, 4 N_φ], within i32.
+        let mut l = unsafe { x.to_int_unchecked::<i32>() } as usize;
         for _ in 0..3 {
             l = if l >= n { l - n } else { l };
         }
@@ -304,43 +306,24 @@ pub(crate) fn fill_holes(
             }
             continue;
         }
-        // Nearest written cell of the ring, wrapping: a sweep each way over two turns.
-        let mut last = (0usize, HOLE, false);
-        for turn in 0..2 {
-            for j in 0..n {
-                let k = turn * n + j;
-                if ring[j] != HOLE {
-                    last = (k, ring[j], true);
-                }
-                if turn == 1 {
-                    left[j] = if last.2 {
-                        (k - last.0, last.1)
-                    } else {
-                        (usize::MAX, HOLE)
-                    };
-                }
+        // Nearest written cell of the ring, wrapping: one sweep each way, started from the
+        // last written cell before it (so that the ring wraps).
+        let last_written = (0..n).rev().find(|&j| ring[j] != HOLE).expect("the ring has a written cell");
+        let mut last = (last_written as isize - n as isize, ring[last_written]);
+        for j in 0..n {
+            if ring[j] != HOLE {
+                last = (j as isize, ring[j]);
             }
+            left[j] = ((j as isize - last.0) as usize, last.1);
         }
-        let mut next = (0usize, HOLE, false);
-        for turn in (0..2).rev() {
-            for j in (0..n).rev() {
-                let k = turn * n + j;
-                if ring[j] != HOLE {
-                    next = (k, ring[j], true);
-                }
-                if turn == 0 && ring[j] == HOLE {
-                    let right = if next.2 {
-                        (next.0 - k, next.1)
-                    } else {
-                        (usize::MAX, HOLE)
-                    };
-                    // The lower φ (left) wins ties, as a search alternating left first would.
-                    ring[j] = if left[j].0 <= right.0 {
-                        left[j].1
-                    } else {
-                        right.1
-                    };
-                }
+        let first_written = (0..n).find(|&j| ring[j] != HOLE).expect("the ring has a written cell");
+        let mut next = (first_written + n, ring[first_written]);
+        for j in (0..n).rev() {
+            if ring[j] != HOLE {
+                next = (j, ring[j]);
+            } else {
+                // The lower φ (left) wins ties, as a search alternating left first would.
+                ring[j] = if left[j].0 <= next.0 - j { left[j].1 } else { next.1 };
             }
         }
     }
