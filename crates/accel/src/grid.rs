@@ -326,37 +326,15 @@ impl<'s> VoxelGrid<'s> {
         if let Some(s) = scratch.stamps.get_mut(skip as usize) {
             *s = (*s).max(scratch.ray);
         }
-        let polygons = self.scene.polygons();
         let (mut t_best, mut best_p, mut best_u, mut best_v) = (t_max, u32::MAX, 0.0f32, 0.0f32);
         self.walk(o, d, start, t_max, |polys, t_exit| {
             for &p in polys {
                 if !scratch.first_visit(p) {
                     continue;
                 }
-                let h = view(scratch, p);
-                let denom = h.normal.dot(d);
-                let t = h.num / denom;
-                // Ties with the best so far go to the lower polygon id.
-                if !(t > 0.0 && (t < t_best || (t == t_best && p < best_p))) {
-                    continue;
-                }
-                let u = h.u0 + t * h.du.dot(d);
-                let v = h.v0 + t * h.dv.dot(d);
-                let [u_lo, u_hi, v_lo, v_hi] = h.uv_bounds;
-                if !((u >= u_lo) & (u <= u_hi) & (v >= v_lo) & (v <= v_hi)) {
-                    continue;
-                }
-                // Back faces (rare) take the shrunk inside test, as in `Polygon::intersect`.
-                let inside = if denom < 0.0 {
-                    !self.general[p as usize] || polygons[p as usize].contains_uv(u, v)
-                } else {
-                    polygons[p as usize].contains_uv_back(u, v)
-                };
-                if inside {
-                    t_best = t;
-                    best_p = p;
-                    best_u = u;
-                    best_v = v;
+                if let Some((t, u, v)) = self.test(&view(scratch, p), p as usize, d, t_best, best_p)
+                {
+                    (t_best, best_p, best_u, best_v) = (t, p, u, v);
                 }
             }
             t_best >= t_exit
@@ -371,6 +349,42 @@ impl<'s> VoxelGrid<'s> {
                 front,
             }
         })
+    }
+
+    /// One polygon's test for a ray in direction `d`, given its terms for the ray's
+    /// origin: the hit's (t, u, v) if it is closer than the best so far (`t_best`, with
+    /// ties going to the lower polygon id below `best_p`), else None.
+    #[inline(always)]
+    fn test(
+        &self,
+        h: &OriginView,
+        p: usize,
+        d: Vec3,
+        t_best: f32,
+        best_p: u32,
+    ) -> Option<(f32, f32, f32)> {
+        let denom = h.normal.dot(d);
+        let t = h.num / denom;
+        if !(t > 0.0 && (t < t_best || (t == t_best && (p as u32) < best_p))) {
+            return None;
+        }
+        let u = h.u0 + t * h.du.dot(d);
+        let v = h.v0 + t * h.dv.dot(d);
+        let [u_lo, u_hi, v_lo, v_hi] = h.uv_bounds;
+        if !((u >= u_lo) & (u <= u_hi) & (v >= v_lo) & (v <= v_hi)) {
+            return None;
+        }
+        // Back faces (rare) take the shrunk inside test, as in `Polygon::intersect`.
+        let inside = if denom < 0.0 {
+            !self.general[p] || self.scene.polygons()[p].contains_uv(u, v)
+        } else {
+            self.scene.polygons()[p].contains_uv_back(u, v)
+        };
+        if inside {
+            Some((t, u, v))
+        } else {
+            None
+        }
     }
 
     /// The hot loop of [`RayCast::closest_hits_from`]: [`VoxelGrid::closest`] for a ray
@@ -423,7 +437,10 @@ impl<'s> VoxelGrid<'s> {
                     continue;
                 }
                 *stamp = ray;
+                // SAFETY: p is a polygon id and views has one entry per polygon.
                 let h = unsafe { views.get_unchecked(p) };
+                // `VoxelGrid::test`, written out: through a helper this loop runs 10 %
+                // more instructions and 25 % more mispredicted branches (cachegrind).
                 let denom = h.normal.dot(d);
                 let t = h.num / denom;
                 if !(t > 0.0 && (t < t_best || (t == t_best && (p as u32) < best_p))) {
@@ -441,10 +458,7 @@ impl<'s> VoxelGrid<'s> {
                     polygons[p].contains_uv_back(u, v)
                 };
                 if inside {
-                    t_best = t;
-                    best_p = p as u32;
-                    best_u = u;
-                    best_v = v;
+                    (t_best, best_p, best_u, best_v) = (t, p as u32, u, v);
                 }
             }
             if t_best < t_exit {

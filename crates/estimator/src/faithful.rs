@@ -89,7 +89,9 @@ impl CellTrig {
     pub fn sector_of(&self, phi: f32) -> usize {
         // Shifted by one turn so that truncation is floor for any phi ≥ −2π.
         let n = self.n_phi;
-        let x = (phi * self.inv_d_phi - self.shift + n as f32).max(0.0).min((4 * n) as f32);
+        let x = (phi * self.inv_d_phi - self.shift + n as f32)
+            .max(0.0)
+            .min((4 * n) as f32);
         // SAFETY: x is finite (max and min drop a NaN) and in [0, 4 N_φ], within i32.
         let mut l = unsafe { x.to_int_unchecked::<i32>() } as usize;
         for _ in 0..3 {
@@ -308,7 +310,10 @@ pub(crate) fn fill_holes(
         }
         // Nearest written cell of the ring, wrapping: one sweep each way, started from the
         // last written cell before it (so that the ring wraps).
-        let last_written = (0..n).rev().find(|&j| ring[j] != HOLE).expect("the ring has a written cell");
+        let last_written = (0..n)
+            .rev()
+            .find(|&j| ring[j] != HOLE)
+            .expect("the ring has a written cell");
         let mut last = (last_written as isize - n as isize, ring[last_written]);
         for j in 0..n {
             if ring[j] != HOLE {
@@ -316,14 +321,20 @@ pub(crate) fn fill_holes(
             }
             left[j] = ((j as isize - last.0) as usize, last.1);
         }
-        let first_written = (0..n).find(|&j| ring[j] != HOLE).expect("the ring has a written cell");
+        let first_written = (0..n)
+            .find(|&j| ring[j] != HOLE)
+            .expect("the ring has a written cell");
         let mut next = (first_written + n, ring[first_written]);
         for j in (0..n).rev() {
             if ring[j] != HOLE {
                 next = (j, ring[j]);
             } else {
                 // The lower φ (left) wins ties, as a search alternating left first would.
-                ring[j] = if left[j].0 <= next.0 - j { left[j].1 } else { next.1 };
+                ring[j] = if left[j].0 <= next.0 - j {
+                    left[j].1
+                } else {
+                    next.1
+                };
             }
         }
     }

@@ -307,24 +307,7 @@ impl Polygon {
     /// through; on the back side the polygon shrinks instead (see [`Polygon::contains_uv_back`]).
     #[inline]
     pub fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<PolygonHit> {
-        let denom = self.normal.dot(d);
-        if denom == 0.0 {
-            return None;
-        }
-        let t = (self.plane_d - self.normal.dot(o)) / denom;
-        if !(t > 0.0 && t < t_max) {
-            return None;
-        }
-        let r = o + d * t - self.origin;
-        let u = r.dot(self.du);
-        let v = r.dot(self.dv);
-        let front = denom < 0.0;
-        let inside = if front {
-            self.contains_uv(u, v)
-        } else {
-            self.contains_uv_back(u, v)
-        };
-        inside.then_some((t, u, v, front))
+        self.intersect_from(self.origin_terms(o), d, t_max)
     }
 
     /// Terms of the intersection that depend only on the ray origin `o`:

@@ -148,14 +148,7 @@ pub fn timing(
         .map(|i| &all[i * all.len() / k])
         .filter(|w| !w.estimated.is_empty())
         .collect();
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .map_err(|e| Error::Parse {
-            what: "thread pool",
-            input: "1".into(),
-            reason: e.to_string(),
-        })?;
+    let pool = crate::one_thread()?;
     let faithful = crate::default_estimator(Mode::Faithful);
     let improved = crate::default_estimator(Mode::Improved);
     Ok(pool.install(|| {

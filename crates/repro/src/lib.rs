@@ -67,6 +67,18 @@ pub fn default_estimator(mode: rad_estimator::Mode) -> rad_estimator::EstimatorC
     }
 }
 
+/// A pool of one thread, for timings.
+pub(crate) fn one_thread() -> Result<rayon::ThreadPool, Error> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .map_err(|e| Error::Parse {
+            what: "thread pool",
+            input: "1".into(),
+            reason: e.to_string(),
+        })
+}
+
 /// Where a figure comes from: filled in by the harness (the library reads no
 /// environment) and written into every JSON result.
 #[derive(Clone, Debug, serde::Serialize)]

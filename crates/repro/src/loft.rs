@@ -113,14 +113,7 @@ pub fn loft_checks(
         median_seconds_per_hemisphere: secs,
         median_mrays_per_second: rays as f64 / secs / 1e6,
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .map_err(|e| Error::Parse {
-            what: "thread pool",
-            input: "1".into(),
-            reason: e.to_string(),
-        })?;
+    let pool = crate::one_thread()?;
     let (t_grid, t_brute) = pool.install(|| {
         let g = time_hemispheres(&scene, &grid, &hemi, &spread(config.timed_grid));
         let b = time_hemispheres(
