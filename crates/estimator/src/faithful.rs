@@ -399,3 +399,6 @@ pub(crate) fn estimate_faithful_with(
     out.hole_ff = hole_ff;
     out
 }
+
+#[cfg(test)]
+mod tests;
