@@ -4,7 +4,7 @@
 //!
 //! - [`SourceHemisphere`]: an exact hemisphere H1 kept for estimation: ids, distances,
 //!   and the boundary lists of §3.5.2.
-//! - [`reproject`]: where a point seen from C1 lands in H2 (exact or first order).
+//! - [`reproject_exact`], [`reproject_first_order`]: where a point seen from C1 lands in H2.
 //! - [`Estimator::faithful`]: the report's method: z-buffered splats, then hole filling.
 //! - [`Estimator::improved`]: splat polygons, then resolve each cell with its own ray
 //!   against the polygons guessed for it and its 8 neighbours.
@@ -22,7 +22,7 @@ pub use config::{EstimatorConfig, HoleFill, Mode, Reprojection, ThresholdTest};
 pub use driver::{estimate_rows, EstimateStats, EstimatedRow, Source};
 pub use faithful::{Estimate, Estimator};
 pub use improved::ImprovedEstimate;
-pub use reproject::{reproject, reproject_exact, reproject_first_order, Motion, Reprojected};
+pub use reproject::{reproject_exact, reproject_first_order, Motion, Reprojected};
 pub use schedule::{windows, Window};
 pub use source::SourceHemisphere;
 

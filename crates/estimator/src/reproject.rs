@@ -1,6 +1,6 @@
-//! Where a point seen from C1 lands when seen from C2 = C1 + d (DESIGN.md §2).
+//! Where a point seen from C1 lands when seen from C2 = C1 + d (DESIGN.md §2), in f64:
+//! the reference for the splat's f32 arithmetic (`faithful::splat`) and for the tests.
 
-use crate::config::{Reprojection, ThresholdTest};
 use std::f64::consts::{PI, TAU};
 
 /// The motion from C1 to C2 in the shared local frame (t, b, n) of their polygon.
@@ -31,23 +31,9 @@ pub struct Reprojected {
 
 /// Exact reprojection through Cartesian coordinates: `q' = Rω − d`,
 /// `R' = |q'|`, `θ' = acos(q'_w / R')`, `φ' = atan2(q'_v, q'_u)` in [0, 2π).
-#[inline]
 pub fn reproject_exact(theta: f64, phi: f64, r: f64, m: &Motion) -> Reprojected {
     let (st, ct) = theta.sin_cos();
     let (sp, cp) = phi.sin_cos();
-    reproject_exact_trig(st, ct, sp, cp, r, m)
-}
-
-/// [`reproject_exact`] with sinθ, cosθ, sinφ, cosφ given.
-#[inline]
-pub(crate) fn reproject_exact_trig(
-    st: f64,
-    ct: f64,
-    sp: f64,
-    cp: f64,
-    r: f64,
-    m: &Motion,
-) -> Reprojected {
     let q = [r * st * cp - m.d[0], r * st * sp - m.d[1], r * ct - m.d[2]];
     let r2 = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt();
     let theta = (q[2] / r2).clamp(-1.0, 1.0).acos();
@@ -62,25 +48,9 @@ pub(crate) fn reproject_exact_trig(
 /// First-order formulas (1): with Δ = −d,
 /// `θ' = θ + (Δ·e_θ)/R`, `φ' = φ + (Δ·e_φ)/(R sinθ)`, `R' = R + Δ·e_R`;
 /// a θ' below 0 has crossed the pole (θ' → −θ', φ' → φ' + π).
-#[inline]
 pub fn reproject_first_order(theta: f64, phi: f64, r: f64, m: &Motion) -> Reprojected {
     let (st, ct) = theta.sin_cos();
     let (sp, cp) = phi.sin_cos();
-    reproject_first_order_trig(theta, phi, st, ct, sp, cp, r, m)
-}
-
-#[inline]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn reproject_first_order_trig(
-    theta: f64,
-    phi: f64,
-    st: f64,
-    ct: f64,
-    sp: f64,
-    cp: f64,
-    r: f64,
-    m: &Motion,
-) -> Reprojected {
     let dl = [-m.d[0], -m.d[1], -m.d[2]];
     let e_r = [st * cp, st * sp, ct];
     let e_t = [ct * cp, ct * sp, -st];
@@ -96,48 +66,6 @@ pub(crate) fn reproject_first_order_trig(
         theta: t2,
         phi: p2.rem_euclid(TAU),
         r: r + dot(dl, e_r),
-    }
-}
-
-/// Reprojects by `rule`: first order where its test passes, exact elsewhere.
-#[inline]
-pub fn reproject(theta: f64, phi: f64, r: f64, m: &Motion, rule: &Reprojection) -> Reprojected {
-    let (st, ct) = theta.sin_cos();
-    let (sp, cp) = phi.sin_cos();
-    reproject_trig(theta, phi, st, ct, sp, cp, r, m, rule)
-}
-
-#[inline]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn reproject_trig(
-    theta: f64,
-    phi: f64,
-    st: f64,
-    ct: f64,
-    sp: f64,
-    cp: f64,
-    r: f64,
-    m: &Motion,
-    rule: &Reprojection,
-) -> Reprojected {
-    let far = match *rule {
-        Reprojection::Exact => false,
-        Reprojection::FirstOrder {
-            test: ThresholdTest::Distance,
-            threshold,
-        } => r > threshold * m.len && st >= 0.05,
-        Reprojection::FirstOrder {
-            test: ThresholdTest::Lateral,
-            threshold,
-        } => r * st > threshold * m.len,
-    };
-    if far && r.is_finite() {
-        reproject_first_order_trig(theta, phi, st, ct, sp, cp, r, m)
-    } else if r.is_finite() {
-        reproject_exact_trig(st, ct, sp, cp, r, m)
-    } else {
-        // A point at infinity does not move.
-        Reprojected { theta, phi, r }
     }
 }
 
