@@ -164,6 +164,8 @@ impl<'s> VoxelGrid<'s> {
         let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n_voxels];
         let eps = 1e-5 * diag;
         for (idx, poly) in scene.polygons().iter().enumerate() {
+            // A polygon accepts hits up to its reach past its edges: pad by that too.
+            let eps = eps.max(2.0 * poly.reach());
             let (plo, phi) = poly_bounds(poly);
             let v0 = (((plo - lo - eps) / cell).floor().max(Vec3::ZERO))
                 .as_uvec3()
@@ -567,10 +569,13 @@ impl RayCast for VoxelGrid<'_> {
             if let (true, Some(n)) = (cull, own) {
                 let (o, n) = (origin.as_dvec3(), n.as_dvec3());
                 for (p, poly) in self.scene.polygons().iter().enumerate() {
+                    // Behind by more than the polygon's reach (its edge tolerance and
+                    // how far its vertices may lie off its plane): exactly unreachable.
+                    let reach = poly.reach() as f64;
                     if poly
                         .vertices()
                         .iter()
-                        .all(|v| (v.as_dvec3() - o).dot(n) <= 0.0)
+                        .all(|v| (v.as_dvec3() - o).dot(n) < -reach)
                     {
                         scratch.stamps[p] = CULLED;
                         scratch.culled.push(p as u32);

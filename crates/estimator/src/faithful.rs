@@ -84,20 +84,23 @@ impl CellTrig {
         }
     }
 
-    /// The sector of azimuth `phi` in [−2π, 4π), without divisions or libm calls.
+    /// The sector of azimuth `phi` (any finite angle): without divisions or libm calls
+    /// for φ in [0, 6π), the range of the splat's angles.
     #[inline(always)]
     pub fn sector_of(&self, phi: f32) -> usize {
-        // Shifted by one turn so that truncation is floor for any phi ≥ −2π.
         let n = self.n_phi;
-        let x = (phi * self.inv_d_phi - self.shift + n as f32)
-            .max(0.0)
-            .min((4 * n) as f32);
-        // SAFETY: x is finite (max and min drop a NaN) and in [0, 4 N_φ], within i32.
-        let mut l = unsafe { x.to_int_unchecked::<i32>() } as usize;
-        for _ in 0..3 {
-            l = if l >= n { l - n } else { l };
+        let x = phi * self.inv_d_phi - self.shift;
+        if x >= 0.0 && x < (3 * n) as f32 {
+            // Truncation is floor here; at most two turns to take off.
+            let mut l = x as usize;
+            for _ in 0..2 {
+                l = if l >= n { l - n } else { l };
+            }
+            l.min(n - 1)
+        } else {
+            // Rare (a first-order move of over a turn, or φ just below 0 with a shift).
+            ((x.floor() as i64).rem_euclid(n as i64) as usize).min(n - 1)
         }
-        l.min(n - 1)
     }
 
     /// The cell holding direction `q`, exactly (table and polynomial first guesses,

@@ -118,22 +118,24 @@ pub(crate) fn estimate_improved_with<C: RayCast>(
                     }
                 }
             }
-            // The nearest front-facing hit; ties go to the lower polygon id, as in the grid.
+            // The nearest hit among the candidates, whichever its side; ties go to the
+            // lower polygon id, as in the grid. A back face nearest (something seen from
+            // behind, or an occluder met from inside) is left to a real ray.
             cand[..n_cand].sort_unstable();
-            let mut best: Option<(f32, u32, f32, f32)> = None;
+            let mut best: Option<(f32, u32, f32, f32, bool)> = None;
             for &p in &cand[..n_cand] {
                 out.tests += 1;
                 let t_max = best.map_or(f32::INFINITY, |b| b.0);
                 let terms = *terms_of[p as usize]
                     .get_or_insert_with(|| polygons[p as usize].origin_terms(o));
-                if let Some((t, u, v, true)) = polygons[p as usize].intersect_from(terms, d, t_max)
+                if let Some((t, u, v, front)) = polygons[p as usize].intersect_from(terms, d, t_max)
                 {
-                    best = Some((t, p, u, v));
+                    best = Some((t, p, u, v, front));
                 }
             }
             let (id, dist) = match best {
-                Some((t, p, u, v)) => (polygons[p as usize].patch_at(u, v), t),
-                None => {
+                Some((t, p, u, v, true)) => (polygons[p as usize].patch_at(u, v), t),
+                _ => {
                     out.real_rays += 1;
                     ray.dir = d;
                     match caster.closest_hit(&ray, scratch) {

@@ -29,6 +29,8 @@ pub struct Polygon {
     eps_u: f32,
     eps_v: f32,
     eps: f32,
+    /// Largest distance a vertex may lie off the plane (the planarity tolerance).
+    off_plane: f32,
     parallelogram: bool,
     /// Inward edge functions in (u, v): `a·u + b·v + c` is the distance (world units)
     /// inside the edge's line.
@@ -130,7 +132,9 @@ impl Polygon {
                 });
             }
         }
-        // Convex, with every turn the same way as the normal (collinear vertices allowed).
+        // Convex, with every turn the same way as the normal (collinear vertices allowed),
+        // and winding once: every vertex on the inner side of every edge (a star, whose
+        // turns all agree, fails this).
         for k in 0..n_vertices {
             let a = pts[k];
             let b = pts[(k + 1) % n_vertices];
@@ -140,6 +144,12 @@ impl Polygon {
                 return Err(PolygonProblem::NonConvex {
                     vertex: (k + 1) % n_vertices,
                 });
+            }
+            let inward = normal.cross(b - a);
+            if let Some(vertex) =
+                (0..n_vertices).find(|&m| (pts[m] - a).dot(inward) < -1e-9 * diameter * diameter)
+            {
+                return Err(PolygonProblem::NonConvex { vertex });
             }
         }
         if nu == 0 || nv == 0 {
@@ -159,7 +169,7 @@ impl Polygon {
         let cross = e_u.cross(e_v);
         if !(cross.dot(normal) > 1e-9 * diameter * diameter) {
             // Vertex 1, 0 and the last vertex are collinear: no (u, v) frame.
-            return Err(PolygonProblem::Degenerate { area });
+            return Err(PolygonProblem::FirstVertexOnEdge);
         }
         let par_area = cross.dot(normal);
         // Dual basis: u = (p − o)·du, v = (p − o)·dv.
@@ -190,6 +200,7 @@ impl Polygon {
             .map(|p| p.abs().max_element())
             .fold(0.0, f64::max);
         let eps = (4e-6 * (max_coord + diameter)) as f32;
+        let off_plane = tolerance as f32;
 
         // Patch texture.
         let (nu32, nv32) = (nu as u32, nv as u32);
@@ -276,6 +287,7 @@ impl Polygon {
             eps_u: (eps as f64 * du.length()) as f32,
             eps_v: (eps as f64 * dv.length()) as f32,
             eps,
+            off_plane,
             parallelogram,
             edges,
             nu: nu32,
@@ -376,29 +388,30 @@ impl Polygon {
         (self.du, self.dv)
     }
 
-    /// Bounds `[u_lo, u_hi, v_lo, v_hi]` of the polygon in (u, v), widened by the
-    /// tolerance of [`Polygon::contains_uv`]: for a parallelogram, being inside them is
-    /// being inside the polygon.
+    /// Bounds `[u_lo, u_hi, v_lo, v_hi]` of a parallelogram in (u, v), widened by the
+    /// tolerance of [`Polygon::contains_uv`] (being inside them is being inside it);
+    /// unbounded for other polygons, whose edge functions decide.
     pub fn uv_bounds(&self) -> [f32; 4] {
-        let (mut b0, mut b1, mut b2, mut b3) = (
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-        );
-        for [u, v] in &self.uv_vertices {
-            (b0, b1, b2, b3) = (b0.min(*u), b1.max(*u), b2.min(*v), b3.max(*v));
-        }
-        let (eu, ev) = (self.eps_u as f64, self.eps_v as f64);
         if self.parallelogram {
-            (b0, b1, b2, b3) = (0.0, 1.0, 0.0, 1.0);
+            // The very f32 sums of `contains_uv`, so that both agree to the bit.
+            [-self.eps_u, 1.0 + self.eps_u, -self.eps_v, 1.0 + self.eps_v]
+        } else {
+            // Near an acute corner the edge tolerance reaches past any (u, v) box grown
+            // by eps_u, eps_v: leave the test to the edge functions.
+            [
+                f32::NEG_INFINITY,
+                f32::INFINITY,
+                f32::NEG_INFINITY,
+                f32::INFINITY,
+            ]
         }
-        [
-            (b0 - eu) as f32,
-            (b1 + eu) as f32,
-            (b2 - ev) as f32,
-            (b3 + ev) as f32,
-        ]
+    }
+
+    /// How far outside its edges a front-face hit is still accepted, plus how far a
+    /// vertex may lie off the polygon's plane: no hit on this polygon lies farther than
+    /// this from the convex hull of its vertices.
+    pub fn reach(&self) -> f32 {
+        self.eps + self.off_plane
     }
 
     /// Plane offset `d` with the plane `normal · p = d`.

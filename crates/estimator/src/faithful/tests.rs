@@ -56,3 +56,26 @@ fn cell_of_vector_agrees_with_the_f64_formulas_away_from_cell_edges() {
         );
     }
 }
+
+#[test]
+fn sector_of_takes_any_angle() {
+    for (np, shift) in [(8u32, 0.5), (720, 0.0), (13, 0.25)] {
+        let hemi = Hemisphere::new(HemisphereConfig {
+            phi_shift: shift,
+            ..HemisphereConfig::exact(4, np)
+        })
+        .unwrap();
+        let trig = CellTrig::new(&hemi);
+        let n = np as i64;
+        for m in -2 * n..4 * n {
+            // Cell centres, from two turns below 0 to four turns above.
+            let phi = (m as f64 + 0.5 + shift) * hemi.d_phi();
+            let want = m.rem_euclid(n) as usize;
+            assert_eq!(
+                trig.sector_of(phi as f32),
+                want,
+                "{np} sectors, shift {shift}, phi {phi}"
+            );
+        }
+    }
+}

@@ -102,6 +102,36 @@ fn non_convex_polygon() {
 }
 
 #[test]
+fn stars_are_not_convex() {
+    // A pentagram: every turn has the same sign, but it winds twice.
+    let star: Vec<Vec3> = [0, 2, 4, 1, 3]
+        .iter()
+        .map(|&k| {
+            let a = std::f32::consts::TAU * k as f32 / 5.0;
+            Vec3::new(a.cos(), a.sin(), 0.0)
+        })
+        .collect();
+    assert!(matches!(
+        problem(one(star, G)),
+        PolygonProblem::NonConvex { .. }
+    ));
+}
+
+#[test]
+fn a_first_vertex_on_a_straight_edge_is_named() {
+    let v = vec![
+        Vec3::new(1.0, 0.0, 0.0),
+        Vec3::new(2.0, 0.0, 0.0),
+        Vec3::new(2.0, 1.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::ZERO,
+    ];
+    let p = problem(one(v, G));
+    assert_eq!(p, PolygonProblem::FirstVertexOnEdge);
+    assert!(p.to_string().contains("start the polygon at a corner"));
+}
+
+#[test]
 fn nan_and_infinite_coordinates() {
     let mut v = square();
     v[1].y = f32::NAN;
