@@ -1,6 +1,5 @@
 //! The brute-force reference: every ray against every polygon.
 
-use crate::Mailbox;
 use rad_core::{Hit, Ray, RayCast};
 use rad_geometry::Scene;
 
@@ -16,13 +15,12 @@ impl<'s> BruteForce<'s> {
 }
 
 impl RayCast for BruteForce<'_> {
-    type Scratch = Mailbox;
+    /// Brute force keeps no state between rays.
+    type Scratch = ();
 
-    fn new_scratch(&self) -> Mailbox {
-        Mailbox::new(0)
-    }
+    fn new_scratch(&self) {}
 
-    fn closest_hit(&self, ray: &Ray, _: &mut Mailbox) -> Option<Hit> {
+    fn closest_hit(&self, ray: &Ray, _: &mut ()) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let mut t_max = ray.t_max;
         for (idx, poly) in self.scene.polygons().iter().enumerate() {
@@ -43,7 +41,7 @@ impl RayCast for BruteForce<'_> {
         best
     }
 
-    fn all_hits(&self, ray: &Ray, _: &mut Mailbox, out: &mut Vec<Hit>) {
+    fn all_hits(&self, ray: &Ray, _: &mut (), out: &mut Vec<Hit>) {
         out.clear();
         for (idx, poly) in self.scene.polygons().iter().enumerate() {
             if idx as u32 == ray.skip {

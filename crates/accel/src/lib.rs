@@ -4,11 +4,9 @@
 
 mod brute;
 mod grid;
-mod mailbox;
 
 pub use brute::BruteForce;
 pub use grid::{GridResolution, GridScratch, VoxelGrid, VoxelGridConfig, MAX_VOXELS};
-pub use mailbox::Mailbox;
 
 /// Errors from building an accelerator.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
