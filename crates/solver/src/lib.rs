@@ -1,0 +1,68 @@
+//! Radiosity over a sparse form-factor matrix.
+//!
+//! [`FormFactors`] holds rows in CSR form (`f32` values, `f64` sums). Hemisphere rows
+//! are point-to-patch estimates, so `A_i F_ij` and `A_j F_ji` differ by the
+//! discretisation error and energy is conserved only to that error;
+//! [`FormFactors::reciprocal`] returns the nearest matrix (in the sense of a symmetric
+//! diagonal scaling) that is exactly reciprocal and keeps every row's sum, which is what
+//! the solvers are meant to run on. [`gauss_seidel`] gathers, [`progressive`] shoots in
+//! order of unshot power; both stop on the same residual and reach the same solution.
+//! Non-convergence is data ([`SolveReport::converged`]), not an error.
+
+mod matrix;
+mod solve;
+
+pub use matrix::{FormFactors, Reciprocity};
+pub use solve::{
+    energy_balance, gauss_seidel, progressive, residual, EnergyBalance, Solution, SolveConfig,
+    SolveReport, Solver, Surfaces,
+};
+
+use rad_core::PatchId;
+
+/// Invalid inputs to the solver.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    #[error("no row for patch {patch} (the matrix needs one row per patch, 0..{n_patches})")]
+    MissingRow { patch: PatchId, n_patches: usize },
+    #[error("two rows for patch {patch}")]
+    DuplicateRow { patch: PatchId },
+    #[error("row of patch {row} names patch {column}, but there are {n_patches} patches")]
+    EntryOutOfRange {
+        row: PatchId,
+        column: PatchId,
+        n_patches: usize,
+    },
+    #[error(
+        "row of patch {row}: form factor to patch {column} is {value}, not a finite value >= 0"
+    )]
+    BadValue {
+        row: PatchId,
+        column: PatchId,
+        value: f64,
+    },
+    #[error("row of patch {row} sums to {sum}, more than 1")]
+    RowSumAboveOne { row: PatchId, sum: f64 },
+    #[error("{what} has {len} entries but the matrix has {n_patches} patches")]
+    LengthMismatch {
+        what: &'static str,
+        len: usize,
+        n_patches: usize,
+    },
+    #[error("patch {patch}: {what} {value:?} is invalid ({rule})")]
+    BadSurface {
+        patch: PatchId,
+        what: &'static str,
+        value: [f64; 3],
+        rule: &'static str,
+    },
+    #[error("no reciprocal scaling found after {iterations} iterations (the pattern of the form factors admits no symmetric matrix with these row sums)")]
+    NoReciprocalScaling { iterations: usize },
+    #[error("solver setting {what} = {value} is invalid ({rule})")]
+    BadConfig {
+        what: &'static str,
+        value: f64,
+        rule: &'static str,
+    },
+}

@@ -1,0 +1,327 @@
+//! Gauss-Seidel gathering, progressive shooting, the residual and the energy balance.
+
+use crate::matrix::{check_areas, FormFactors};
+use crate::Error;
+use rad_core::PatchId;
+
+/// What the solvers need to know of each patch: area, emission (radiosity units) and
+/// reflectance, per RGB channel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Surfaces {
+    pub area: Vec<f64>,
+    pub emission: Vec<[f64; 3]>,
+    pub reflectance: Vec<[f64; 3]>,
+}
+
+impl Surfaces {
+    /// Checks the lengths against `n` and the values: areas finite and > 0, emission
+    /// finite and >= 0, reflectance in [0, 1).
+    pub fn validate(&self, n: usize) -> Result<(), Error> {
+        check_areas(&self.area, n)?;
+        for (what, len) in [
+            ("emissions", self.emission.len()),
+            ("reflectances", self.reflectance.len()),
+        ] {
+            if len != n {
+                return Err(Error::LengthMismatch {
+                    what,
+                    len,
+                    n_patches: n,
+                });
+            }
+        }
+        for i in 0..n {
+            let e = self.emission[i];
+            if !e.iter().all(|c| c.is_finite() && *c >= 0.0) {
+                return Err(Error::BadSurface {
+                    patch: i as PatchId,
+                    what: "emission",
+                    value: e,
+                    rule: "each channel finite and >= 0",
+                });
+            }
+            let r = self.reflectance[i];
+            if !r.iter().all(|c| c.is_finite() && (0.0..1.0).contains(c)) {
+                return Err(Error::BadSurface {
+                    patch: i as PatchId,
+                    what: "reflectance",
+                    value: r,
+                    rule: "each channel in [0, 1)",
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Which iteration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Solver {
+    /// Gauss-Seidel on `B = E + ρ F B`, patches in order.
+    GaussSeidel,
+    /// Progressive refinement: shoot the patch of largest unshot power.
+    Progressive,
+}
+
+impl Solver {
+    pub fn name(self) -> &'static str {
+        match self {
+            Solver::GaussSeidel => "gauss-seidel",
+            Solver::Progressive => "progressive",
+        }
+    }
+}
+
+/// When to stop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolveConfig {
+    /// Stop once [`residual`] is at most this.
+    pub tolerance: f64,
+    /// Gauss-Seidel: sweeps; progressive: shots (each shot is one row).
+    pub max_iterations: usize,
+}
+
+impl Default for SolveConfig {
+    fn default() -> Self {
+        SolveConfig {
+            tolerance: 1e-9,
+            max_iterations: 10_000_000,
+        }
+    }
+}
+
+impl SolveConfig {
+    fn validate(&self) -> Result<(), Error> {
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            return Err(Error::BadConfig {
+                what: "tolerance",
+                value: self.tolerance,
+                rule: "must be finite and > 0",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// How a solve ended. Non-convergence is reported here, not as an error.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolveReport {
+    pub solver: Solver,
+    /// Sweeps (Gauss-Seidel) or shots (progressive).
+    pub iterations: usize,
+    /// [`residual`] of the returned radiosities.
+    pub residual: f64,
+    pub converged: bool,
+}
+
+/// Radiosities (per patch, RGB) and how they were reached.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Solution {
+    pub radiosity: Vec<[f64; 3]>,
+    /// Progressive refinement's ambient term (unshot radiosity spread evenly, times the
+    /// mean interreflection `1 / (1 − ρ̄)`), for display: `B_i + ρ_i · ambient`. Zero
+    /// for Gauss-Seidel and at convergence it is below the tolerance anyway.
+    pub ambient: [f64; 3],
+    pub report: SolveReport,
+}
+
+impl Solution {
+    /// Radiosity for display: with the ambient term added.
+    pub fn display(&self, surfaces: &Surfaces) -> Vec<[f64; 3]> {
+        self.radiosity
+            .iter()
+            .zip(&surfaces.reflectance)
+            .map(|(b, r)| std::array::from_fn(|c| b[c] + r[c] * self.ambient[c]))
+            .collect()
+    }
+}
+
+/// `max_{i,c} |E + ρ F B − B|_{i,c} / max_{i,c} B_{i,c}` (0 if B is zero everywhere and
+/// so is E).
+pub fn residual(ff: &FormFactors, surfaces: &Surfaces, b: &[[f64; 3]]) -> f64 {
+    let h = ff.apply(b);
+    let mut worst: f64 = 0.0;
+    let mut scale: f64 = 0.0;
+    for i in 0..b.len() {
+        for c in 0..3 {
+            let r = surfaces.emission[i][c] + surfaces.reflectance[i][c] * h[i][c] - b[i][c];
+            worst = worst.max(r.abs());
+            scale = scale.max(b[i][c].abs());
+        }
+    }
+    if scale > 0.0 {
+        worst / scale
+    } else {
+        worst
+    }
+}
+
+fn check(ff: &FormFactors, surfaces: &Surfaces, config: &SolveConfig) -> Result<(), Error> {
+    config.validate()?;
+    surfaces.validate(ff.n_patches())
+}
+
+/// Gauss-Seidel gathering: `B_i ← E_i + ρ_i Σ_j F_ij B_j`, patches in order, sweeps until
+/// the largest change of a sweep and then the true residual are within tolerance.
+/// Sequential, so the answer does not depend on threads.
+pub fn gauss_seidel(
+    ff: &FormFactors,
+    surfaces: &Surfaces,
+    config: &SolveConfig,
+) -> Result<Solution, Error> {
+    check(ff, surfaces, config)?;
+    let n = ff.n_patches();
+    let mut b = surfaces.emission.clone();
+    let mut iterations = 0;
+    let mut res = residual(ff, surfaces, &b);
+    while res > config.tolerance && iterations < config.max_iterations {
+        let mut change: f64 = 0.0;
+        let mut scale: f64 = 0.0;
+        for i in 0..n {
+            let h = ff.row_dot(i as PatchId, &b);
+            for c in 0..3 {
+                let new = surfaces.emission[i][c] + surfaces.reflectance[i][c] * h[c];
+                change = change.max((new - b[i][c]).abs());
+                scale = scale.max(new.abs());
+                b[i][c] = new;
+            }
+        }
+        iterations += 1;
+        if change <= config.tolerance * scale.max(f64::MIN_POSITIVE) {
+            res = residual(ff, surfaces, &b);
+        }
+    }
+    Ok(Solution {
+        radiosity: b,
+        ambient: [0.0; 3],
+        report: SolveReport {
+            solver: Solver::GaussSeidel,
+            iterations,
+            residual: res,
+            converged: res <= config.tolerance,
+        },
+    })
+}
+
+/// Progressive refinement: repeatedly the patch `i` of largest unshot power
+/// `A_i Σ_c ΔB_{i,c}` shoots, giving each `j` in its row `ρ_j F_ij ΔB_i A_i / A_j`
+/// (that is `ρ_j F_ji ΔB_i` by reciprocity: run it on [`FormFactors::reciprocal`]'s
+/// matrix). Stops when the largest unshot radiosity is within tolerance of the largest
+/// radiosity and then the true residual is too.
+pub fn progressive(
+    ff: &FormFactors,
+    surfaces: &Surfaces,
+    config: &SolveConfig,
+) -> Result<Solution, Error> {
+    check(ff, surfaces, config)?;
+    let n = ff.n_patches();
+    let area = &surfaces.area;
+    let rho = &surfaces.reflectance;
+    let mut b = surfaces.emission.clone();
+    let mut unshot = surfaces.emission.clone();
+    let mut power: Vec<f64> = (0..n)
+        .map(|i| area[i] * unshot[i].iter().sum::<f64>())
+        .collect();
+    let mut iterations = 0;
+    let mut res;
+    loop {
+        // Ties go to the lower index, so the order is deterministic.
+        let mut i = 0;
+        for (k, &p) in power.iter().enumerate() {
+            if p > power[i] {
+                i = k;
+            }
+        }
+        if n == 0 || iterations % 64 == 0 {
+            let max_b = b.iter().flatten().fold(0.0f64, |m, v| m.max(*v));
+            let max_unshot = unshot.iter().flatten().fold(0.0f64, |m, v| m.max(*v));
+            if max_unshot <= config.tolerance * max_b.max(f64::MIN_POSITIVE) {
+                res = residual(ff, surfaces, &b);
+                if res <= config.tolerance || n == 0 {
+                    break;
+                }
+            }
+        }
+        if iterations >= config.max_iterations {
+            res = residual(ff, surfaces, &b);
+            break;
+        }
+        let shot = unshot[i];
+        unshot[i] = [0.0; 3];
+        power[i] = 0.0;
+        let (cols, vals) = ff.row(i as PatchId);
+        let row_scale = ff.row_scale(i as PatchId);
+        for (&j, &f) in cols.iter().zip(vals) {
+            let j = j as usize;
+            // F_ji: exact from symmetric storage, else by reciprocity from F_ij.
+            let k = if ff.is_symmetric() {
+                f as f64 * ff.row_scale(j as PatchId)
+            } else {
+                f as f64 * row_scale * area[i] / area[j]
+            };
+            let mut add_power = 0.0;
+            for c in 0..3 {
+                let d = rho[j][c] * k * shot[c];
+                b[j][c] += d;
+                unshot[j][c] += d;
+                add_power += d;
+            }
+            power[j] += area[j] * add_power;
+        }
+        iterations += 1;
+    }
+    // Ambient term: unshot radiosity, area-averaged, times 1 / (1 − ρ̄).
+    let total_area: f64 = area.iter().sum();
+    let ambient = std::array::from_fn(|c| {
+        if n == 0 {
+            return 0.0;
+        }
+        let u: f64 = (0..n).map(|i| area[i] * unshot[i][c]).sum::<f64>() / total_area;
+        let r: f64 = (0..n).map(|i| area[i] * rho[i][c]).sum::<f64>() / total_area;
+        u / (1.0 - r)
+    });
+    Ok(Solution {
+        radiosity: b,
+        ambient,
+        report: SolveReport {
+            solver: Solver::Progressive,
+            iterations,
+            residual: res,
+            converged: res <= config.tolerance,
+        },
+    })
+}
+
+/// Where the power goes, per RGB channel.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EnergyBalance {
+    /// `Σ A_i E_i`.
+    pub emitted: [f64; 3],
+    /// `Σ A_i (1 − ρ_i) H_i`, with `H = F B` the irradiance.
+    pub absorbed: [f64; 3],
+    /// Power leaving the scene: `Σ A_i B_i (1 − Σ_j F_ij)` (zero in a closed scene).
+    pub escaped: [f64; 3],
+    /// `max_c |emitted − absorbed − escaped| / emitted` over channels that emit.
+    pub relative_imbalance: f64,
+}
+
+/// The energy balance of radiosities `b` under `ff`: exact (to the residual) when `ff`
+/// is reciprocal, off by the reciprocity error otherwise.
+pub fn energy_balance(ff: &FormFactors, surfaces: &Surfaces, b: &[[f64; 3]]) -> EnergyBalance {
+    let h = ff.apply(b);
+    let mut e = EnergyBalance::default();
+    for i in 0..b.len() {
+        let a = surfaces.area[i];
+        let leave = 1.0 - ff.row_sum(i as PatchId);
+        for c in 0..3 {
+            e.emitted[c] += a * surfaces.emission[i][c];
+            e.absorbed[c] += a * (1.0 - surfaces.reflectance[i][c]) * h[i][c];
+            e.escaped[c] += a * b[i][c] * leave;
+        }
+    }
+    e.relative_imbalance = (0..3)
+        .filter(|&c| e.emitted[c] > 0.0)
+        .map(|c| (e.emitted[c] - e.absorbed[c] - e.escaped[c]).abs() / e.emitted[c])
+        .fold(0.0, f64::max);
+    e
+}
