@@ -464,6 +464,25 @@ impl Polygon {
     pub fn grid(&self) -> (u32, u32) {
         (self.nu, self.nv)
     }
+    /// The patch of cell (i, j); a cell with no area gives its nearest patch.
+    ///
+    /// # Panics
+    /// If the cell is outside the grid.
+    pub fn cell_patch(&self, i: u32, j: u32) -> PatchId {
+        assert!(
+            i < self.nu && j < self.nv,
+            "cell ({i}, {j}) outside the patch grid"
+        );
+        self.cell_patch[(j * self.nu + i) as usize]
+    }
+
+    /// Continuous cell coordinates of (u, v), not clamped: cell (i, j) spans
+    /// `[i, i + 1) × [j, j + 1)`.
+    pub fn cell_coords(&self, u: f32, v: f32) -> (f32, f32) {
+        let [u0, su, v0, sv] = self.grid_map;
+        ((u - u0) * su, (v - v0) * sv)
+    }
+
     /// Cell (i, j) of parameters (u, v), clamped to the grid.
     pub fn cell_at(&self, u: f32, v: f32) -> (u32, u32) {
         let [u0, su, v0, sv] = self.grid_map;
