@@ -49,6 +49,26 @@ pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Resul
     write("cube_accuracy.json", r.cube_json(&provenance))?;
     write("loft_checks.json", r.loft_json(&provenance))?;
     write("cube_error.json", r.estimation_json(&provenance))?;
+    write("loft_speedup.json", r.loft_speedup_json(&provenance))?;
+    write("radiosity.json", r.radiosity_json(&provenance))?;
+    // Images: EXR, and PNG previews; the loft's renders share the exact one's exposure.
+    let mut shared: Option<f32> = None;
+    for (stem, img, group) in &r.radiosity.images {
+        let exr = out.join(format!("{stem}.exr"));
+        rad_repro::images::write_exr(&exr, img)
+            .with_context(|| format!("writing {}", exr.display()))?;
+        let exposure = if *group {
+            *shared.get_or_insert_with(|| rad_repro::images::auto_exposure(img))
+        } else if stem.contains("reldiff") {
+            1.0
+        } else {
+            rad_repro::images::auto_exposure(img)
+        };
+        let png = out.join(format!("{stem}.png"));
+        rad_repro::images::write_png(&png, img, exposure)
+            .with_context(|| format!("writing {}", png.display()))?;
+        eprintln!("  wrote {} and .png", exr.display());
+    }
     write("REPORT.md", r.report(&provenance, wall))?;
     eprintln!("done in {wall:.1} s");
     Ok(())

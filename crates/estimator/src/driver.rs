@@ -42,6 +42,12 @@ pub struct EstimateStats {
     pub real_rays: u64,
     pub holes: u64,
     pub polygon_tests: u64,
+    /// Thread-seconds spent on exact hemispheres (window centres, with their boundary
+    /// lists if configured, and their rows).
+    pub exact_seconds: f64,
+    /// Thread-seconds spent on estimated hemispheres and their rows (improved mode's
+    /// exact fallbacks included).
+    pub estimate_seconds: f64,
 }
 
 /// Rows of `patches` by the window schedule: the exact hemisphere of each window's centre
@@ -72,7 +78,7 @@ pub fn estimate_rows<C: RayCast>(
         .collect();
     let est = Estimator::new(hemi);
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let per_window: Vec<Vec<(PatchId, EstimatedRow, u64)>> = todo
+    let per_window: Vec<Vec<(PatchId, EstimatedRow, u64, f64)>> = todo
         .par_iter()
         .map_init(
             || {
@@ -84,6 +90,7 @@ pub fn estimate_rows<C: RayCast>(
             },
             |(scratch, acc, buf), w| {
                 let mut out = Vec::new();
+                let clock = std::time::Instant::now();
                 let src = SourceHemisphere::cast(
                     scene,
                     caster,
@@ -103,9 +110,15 @@ pub fn estimate_rows<C: RayCast>(
                             real_rays: 0,
                         },
                         0,
+                        0.0,
                     ));
                 }
+                let exact_seconds = clock.elapsed().as_secs_f64();
+                if let Some(first) = out.first_mut() {
+                    first.3 = exact_seconds;
+                }
                 for &p in w.estimated.iter().filter(|p| wanted.contains(p)) {
+                    let clock = std::time::Instant::now();
                     let (items, holes, real_rays, tests, fallback) = match config.mode {
                         Mode::Faithful => {
                             let e = est.faithful(scene, &src, p, config);
@@ -137,6 +150,7 @@ pub fn estimate_rows<C: RayCast>(
                             real_rays: real_rays as u32,
                         },
                         tests as u64,
+                        clock.elapsed().as_secs_f64(),
                     ));
                 }
                 progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
@@ -146,11 +160,20 @@ pub fn estimate_rows<C: RayCast>(
         .collect();
     let mut stats = EstimateStats::default();
     let mut by_patch: HashMap<PatchId, EstimatedRow> = HashMap::new();
-    for (p, r, tests) in per_window.into_iter().flatten() {
+    for (p, r, tests, seconds) in per_window.into_iter().flatten() {
         match r.source {
-            Source::Exact => stats.exact += 1,
-            Source::Estimated { .. } => stats.estimated += 1,
-            Source::ExactFallback { .. } => stats.fallback_exact += 1,
+            Source::Exact => {
+                stats.exact += 1;
+                stats.exact_seconds += seconds;
+            }
+            Source::Estimated { .. } => {
+                stats.estimated += 1;
+                stats.estimate_seconds += seconds;
+            }
+            Source::ExactFallback { .. } => {
+                stats.fallback_exact += 1;
+                stats.estimate_seconds += seconds;
+            }
         }
         stats.real_rays += r.real_rays as u64;
         stats.holes += r.holes as u64;

@@ -5,11 +5,14 @@
 pub mod accuracy;
 pub mod closed_form;
 pub mod estimation;
+pub mod images;
 pub mod loft;
 pub mod output;
 mod parse;
 pub mod reciprocity;
+pub mod radiosity;
 pub mod reproduce;
+pub mod speedup;
 pub mod stats;
 
 pub use parse::{parse_patch_list, parse_resolution};
@@ -32,6 +35,14 @@ pub enum Error {
         input: String,
         reason: String,
     },
+    #[error(transparent)]
+    Solver(#[from] rad_solver::Error),
+    #[error(transparent)]
+    Render(#[from] rad_render::Error),
+    #[error(transparent)]
+    Estimator(#[from] rad_estimator::Error),
+    #[error("cannot encode {what}: {reason}")]
+    Encode { what: &'static str, reason: String },
     #[error("cannot write {}: {source}", path.display())]
     Write {
         path: std::path::PathBuf,

@@ -95,6 +95,7 @@ pub struct Reproduction {
     pub cube_seconds: f64,
     pub loft: LoftChecks,
     pub loft_seconds: f64,
+    pub radiosity: crate::speedup::Radiosity,
 }
 
 /// Runs the experiments; `progress(stage, step, of)` as they go.
@@ -117,7 +118,9 @@ pub fn run(
     let loft = loft_checks(&loft_cfg, &|s, n| progress("loft checks", s, n))?;
     let loft_seconds = t.elapsed().as_secs_f64();
     let estimation = estimation(quick, progress)?;
+    let radiosity = crate::speedup::run(quick, progress)?;
     Ok(Reproduction {
+        radiosity,
         estimation,
         quick,
         cube: cube_acc,
@@ -227,6 +230,40 @@ impl Reproduction {
             quick: self.quick,
             note: LOFT_NOTE,
             estimation: &self.estimation,
+        };
+        serde_json::to_string_pretty(&r).expect("results serialise") + "\n"
+    }
+
+    /// loft_speedup.json: Table 1, Table 2 and the loft images' statistics.
+    pub fn loft_speedup_json(&self, provenance: &Provenance) -> String {
+        #[derive(Serialize)]
+        struct L<'a> {
+            provenance: &'a Provenance,
+            quick: bool,
+            note: &'static str,
+            loft: &'a crate::speedup::LoftSpeedup,
+        }
+        let r = L {
+            provenance,
+            quick: self.quick,
+            note: LOFT_NOTE,
+            loft: &self.radiosity.loft,
+        };
+        serde_json::to_string_pretty(&r).expect("results serialise") + "\n"
+    }
+
+    /// radiosity.json: the cube's and Cornell box's solutions with both solvers.
+    pub fn radiosity_json(&self, provenance: &Provenance) -> String {
+        #[derive(Serialize)]
+        struct R<'a> {
+            provenance: &'a Provenance,
+            quick: bool,
+            scenes: &'a [crate::speedup::SceneSolves],
+        }
+        let r = R {
+            provenance,
+            quick: self.quick,
+            scenes: &self.radiosity.scenes,
         };
         serde_json::to_string_pretty(&r).expect("results serialise") + "\n"
     }

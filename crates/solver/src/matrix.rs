@@ -36,7 +36,7 @@ pub struct Reciprocity {
     pub mean_row_l1_change: f64,
     /// Largest `|Σ_j F̃_ij − Σ_j F_ij|` after scaling.
     pub max_row_sum_error: f64,
-    /// Scaling iterations used.
+    /// Products by G used (Newton steps and conjugate-gradient iterations).
     pub iterations: usize,
     /// Whether every row reached its sum within the tolerance asked.
     pub converged: bool,
@@ -225,9 +225,9 @@ impl FormFactors {
     /// The exactly reciprocal matrix closest to this one that keeps each row's sum.
     ///
     /// `G = (A_i F_ij + A_j F_ji) / 2` is symmetric; a symmetric diagonal scaling
-    /// `x_i G_ij x_j` (found by symmetric Sinkhorn–Knopp iteration, `x_i ← sqrt(x_i ·
-    /// t_i / (G x)_i)` with `t_i = A_i Σ_j F_ij`) makes its rows sum to `t_i` while
-    /// keeping it symmetric. Then `F̃_ij = x_i G_ij x_j / A_i` satisfies
+    /// `x_i G_ij x_j` (found by Newton's method with conjugate-gradient steps on
+    /// `x ∘ (G x) = t`, `t_i = A_i Σ_j F_ij`) makes its rows sum to `t_i` while keeping
+    /// it symmetric. Then `F̃_ij = x_i G_ij x_j / A_i` satisfies
     /// `A_i F̃_ij = A_j F̃_ji` exactly and `Σ_j F̃_ij = Σ_j F_ij` to `tolerance`: in a
     /// closed scene rows still sum to 1, and the solvers conserve energy exactly.
     ///
@@ -292,31 +292,79 @@ impl FormFactors {
                 .map(|(&j, &g)| g * x[j as usize])
                 .sum()
         };
-        let mut x = vec![1.0f64; n];
+        // Newton's method on x ∘ (G x) = t, each step solved by preconditioned conjugate
+        // gradients (Knight & Ruiz's balancing idea): the Jacobian divided by x,
+        // diag(Gx / x) + G, is symmetric positive semi-definite. Patches with t = 0 keep
+        // x = 0. `iterations` counts products by G.
+        let active: Vec<bool> = target.iter().map(|&t| t > 0.0).collect();
+        let mut x: Vec<f64> = active.iter().map(|&a| if a { 1.0 } else { 0.0 }).collect();
+        let spmv = |v: &[f64]| -> Vec<f64> { (0..n).into_par_iter().map(|i| g_dot(i, v)).collect() };
+        let dot = |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(p, q)| p * q).sum() };
         let mut iterations = 0;
-        let mut worst = f64::INFINITY;
-        while iterations < max_iterations {
-            let gx: Vec<f64> = (0..n).into_par_iter().map(|i| g_dot(i, &x)).collect();
+        let mut worst;
+        loop {
+            let gx = spmv(&x);
+            iterations += 1;
             worst = (0..n)
-                .map(|i| {
-                    if target[i] > 0.0 {
-                        (x[i] * gx[i] - target[i]).abs() / target[i]
-                    } else {
-                        0.0
-                    }
-                })
+                .filter(|&i| active[i])
+                .map(|i| (x[i] * gx[i] - target[i]).abs() / target[i])
                 .fold(0.0, f64::max);
-            if worst <= tolerance {
+            if worst <= tolerance || iterations >= max_iterations || !worst.is_finite() {
                 break;
             }
-            for i in 0..n {
-                if target[i] > 0.0 && gx[i] > 0.0 {
-                    x[i] = (x[i] * target[i] / gx[i]).sqrt();
+            let d: Vec<f64> = (0..n)
+                .map(|i| if active[i] && x[i] > 0.0 { gx[i] / x[i] } else { 1.0 })
+                .collect();
+            let r: Vec<f64> = (0..n)
+                .map(|i| if active[i] { (target[i] - x[i] * gx[i]) / x[i] } else { 0.0 })
+                .collect();
+            let r_norm = dot(&r, &r).sqrt();
+            let eta = worst.sqrt().min(0.5);
+            let mut delta = vec![0.0; n];
+            let mut res = r;
+            let mut z: Vec<f64> = res.iter().zip(&d).map(|(a, b)| a / b).collect();
+            let mut p = z.clone();
+            let mut rz = dot(&res, &z);
+            for _ in 0..200 {
+                let gp = spmv(&p);
+                iterations += 1;
+                let q: Vec<f64> = (0..n)
+                    .map(|i| if active[i] { d[i] * p[i] + gp[i] } else { 0.0 })
+                    .collect();
+                let pq = dot(&p, &q);
+                if !(pq > 0.0) {
+                    break;
+                }
+                let alpha = rz / pq;
+                for i in 0..n {
+                    delta[i] += alpha * p[i];
+                    res[i] -= alpha * q[i];
+                }
+                if dot(&res, &res).sqrt() <= eta * r_norm || iterations >= max_iterations {
+                    break;
+                }
+                z = res.iter().zip(&d).map(|(a, b)| a / b).collect();
+                let rz_new = dot(&res, &z);
+                let beta = rz_new / rz;
+                rz = rz_new;
+                for i in 0..n {
+                    p[i] = z[i] + beta * p[i];
                 }
             }
-            iterations += 1;
+            // Stay positive: at most 90 % of the way to the boundary.
+            let mut step: f64 = 1.0;
+            for i in 0..n {
+                if active[i] && delta[i] < 0.0 {
+                    step = step.min(0.9 * x[i] / -delta[i]);
+                }
+            }
+            for i in 0..n {
+                if active[i] {
+                    x[i] += step * delta[i];
+                }
+            }
         }
-        if x.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+        if x.iter().zip(&active).any(|(v, &a)| !v.is_finite() || (a && *v <= 0.0)) {
             return Err(Error::NoReciprocalScaling { iterations });
         }
         let mut row_start = Vec::with_capacity(n + 1);

@@ -1,0 +1,157 @@
+//! Image files: 32-bit float RGB OpenEXR (the `exr` crate) and tone-mapped sRGB PNG
+//! previews (the `png` crate), both written atomically.
+
+use crate::output::write_atomic;
+use crate::Error;
+use rad_render::{luminance, Image};
+use std::path::Path;
+
+/// The image as an OpenEXR file in memory: RGB, 32-bit float, no alpha.
+pub fn encode_exr(img: &Image) -> Result<Vec<u8>, Error> {
+    use exr::prelude::*;
+    let w = img.width as usize;
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let p = img.pixels[y * w + x];
+        (p[0], p[1], p[2])
+    });
+    let image = exr::image::Image::from_channels((w, img.height as usize), channels);
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    image
+        .write()
+        .non_parallel()
+        .to_buffered(&mut bytes)
+        .map_err(|e| crate::Error::Encode {
+            what: "exr",
+            reason: e.to_string(),
+        })?;
+    Ok(bytes.into_inner())
+}
+
+/// Writes `img` as 32-bit float RGB OpenEXR.
+pub fn write_exr(path: &Path, img: &Image) -> Result<(), Error> {
+    let bytes = encode_exr(img)?;
+    write_atomic(path, |w| w.write_all(&bytes))
+}
+
+/// An exposure that maps the 95th percentile of the lit pixels' luminance to 0.8 (so
+/// that lights and the brightest few per cent saturate): `1` for a black image.
+pub fn auto_exposure(img: &Image) -> f32 {
+    let mut l: Vec<f64> = img
+        .pixels
+        .iter()
+        .map(|&p| luminance(p))
+        .filter(|&v| v > 0.0)
+        .collect();
+    if l.is_empty() {
+        return 1.0;
+    }
+    l.sort_by(f64::total_cmp);
+    let p = l[((l.len() - 1) as f64 * 0.95) as usize];
+    (0.8 / p) as f32
+}
+
+/// sRGB transfer of a linear value in [0, 1].
+fn srgb(v: f32) -> u8 {
+    let v = v.clamp(0.0, 1.0);
+    let s = if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0 + 0.5) as u8
+}
+
+/// The image scaled by `exposure`, clipped to [0, 1] and sRGB-encoded, as 8-bit PNG.
+pub fn encode_png(img: &Image, exposure: f32) -> Result<Vec<u8>, Error> {
+    let data: Vec<u8> = img
+        .pixels
+        .iter()
+        .flat_map(|p| p.map(|c| srgb(c * exposure)))
+        .collect();
+    let mut bytes = Vec::new();
+    let fail = |e: png::EncodingError| Error::Encode {
+        what: "png",
+        reason: e.to_string(),
+    };
+    {
+        let mut enc = png::Encoder::new(&mut bytes, img.width, img.height);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        let mut writer = enc.write_header().map_err(fail)?;
+        writer.write_image_data(&data).map_err(fail)?;
+        writer.finish().map_err(fail)?;
+    }
+    Ok(bytes)
+}
+
+/// Writes a PNG preview of `img` at `exposure`.
+pub fn write_png(path: &Path, img: &Image, exposure: f32) -> Result<(), Error> {
+    let bytes = encode_png(img, exposure)?;
+    write_atomic(path, |w| w.write_all(&bytes))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gradient() -> Image {
+        let (w, h) = (7u32, 5u32);
+        Image {
+            width: w,
+            height: h,
+            pixels: (0..w * h)
+                .map(|k| [k as f32 * 0.25, 1.0 / (1.0 + k as f32), 3.5])
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn exr_round_trips_32_bit_floats() {
+        use exr::prelude::*;
+        let img = gradient();
+        let bytes = encode_exr(&img).unwrap();
+        let read = read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .rgb_channels(
+                |res, _| vec![[0f32; 3]; res.width() * res.height()],
+                |px: &mut Vec<[f32; 3]>, pos, (r, g, b): (f32, f32, f32)| {
+                    px[pos.y() * 7 + pos.x()] = [r, g, b]
+                },
+            )
+            .first_valid_layer()
+            .all_attributes()
+            .from_buffered(std::io::Cursor::new(bytes))
+            .unwrap();
+        assert_eq!(read.layer_data.size, Vec2(7, 5));
+        assert_eq!(read.layer_data.channel_data.pixels, img.pixels);
+    }
+
+    #[test]
+    fn png_is_srgb_encoded_and_clipped() {
+        let img = Image {
+            width: 3,
+            height: 1,
+            pixels: vec![[0.0; 3], [0.5, 0.5, 0.5], [4.0, 0.0, 0.0]],
+        };
+        let bytes = encode_png(&img, 1.0).unwrap();
+        let dec = png::Decoder::new(std::io::Cursor::new(bytes));
+        let mut reader = dec.read_info().unwrap();
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut buf).unwrap();
+        assert_eq!((info.width, info.height), (3, 1));
+        assert_eq!(&buf[..9], &[0, 0, 0, 188, 188, 188, 255, 0, 0]);
+    }
+
+    #[test]
+    fn exposure_maps_the_95th_percentile_to_0_8() {
+        let img = Image {
+            width: 100,
+            height: 1,
+            pixels: (0..100).map(|k| [k as f32; 3]).collect(),
+        };
+        // Lit pixels 1..=99; the 95th percentile of 99 values is the 94th (index 93).
+        assert!((auto_exposure(&img) - 0.8 / 94.0).abs() < 1e-6);
+    }
+}
