@@ -1,4 +1,5 @@
-//! `coherad`: patches and form factors of any scene file, from the command line.
+//! `coherad`: patches, form factors, radiosity solutions and images of any scene file,
+//! from the command line.
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -6,10 +7,16 @@ use rad_accel::VoxelGrid;
 use rad_estimator::{estimate_rows, windows, Mode, Source};
 use rad_geometry::file::load_scene;
 use rad_hemisphere::{compute_rows, Hemisphere, HemisphereConfig, Row};
+use rad_render::{render, RenderConfig, Shading, View};
+use rad_repro::images::{auto_exposure, write_exr, write_png};
 use rad_repro::output::{
     write_atomic, write_patches_json, write_row_json, write_rows_footer, write_rows_header,
 };
+use rad_repro::radiosity::{
+    read_solution, solve, surfaces, SolutionFile, SolveOptions, SolverJson, Timings,
+};
 use rad_repro::{default_estimator, default_grid, parse_patch_list, parse_resolution};
+use rad_solver::{FormFactors, SolveConfig, Solver};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -59,6 +66,68 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Radiosity of every patch: form factors (exact or estimated), made reciprocal, solved (JSON).
+    Solve {
+        scene: PathBuf,
+        /// Hemisphere cells, N_THETAxN_PHI (the report: 180x720).
+        #[arg(long, default_value = "180x720")]
+        resolution: String,
+        #[arg(long, value_enum, default_value_t = Method::Exact)]
+        method: Method,
+        #[arg(long, value_enum, default_value_t = EstimatorMode::Improved)]
+        estimator: EstimatorMode,
+        /// gauss-seidel (gathering) or progressive (shooting by unshot power).
+        #[arg(long, value_enum, default_value_t = SolverKind::GaussSeidel)]
+        solver: SolverKind,
+        /// Stop when max |E + rho F B - B| / max B is at most this.
+        #[arg(long, default_value_t = 1e-9)]
+        tolerance: f64,
+        /// Solve the rows as computed, without making them reciprocal first (energy is then
+        /// conserved only to their reciprocity error).
+        #[arg(long)]
+        raw: bool,
+        /// The solution file (atomically: all or nothing).
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// An image of a solution from the scene's camera: 32-bit float EXR, optional PNG preview.
+    Render {
+        scene: PathBuf,
+        /// A solution file written by `coherad solve` for this scene.
+        #[arg(long)]
+        solution: PathBuf,
+        /// The EXR image (linear RGB radiosity).
+        #[arg(long)]
+        out: PathBuf,
+        /// Also a tone-mapped sRGB PNG preview here.
+        #[arg(long)]
+        png: Option<PathBuf>,
+        #[arg(long, default_value_t = 640)]
+        width: u32,
+        #[arg(long, default_value_t = 480)]
+        height: u32,
+        /// SAMPLES x SAMPLES rays a pixel.
+        #[arg(long, default_value_t = 2)]
+        samples: u32,
+        /// flat: each patch's own value; smooth: interpolated from patch corners.
+        #[arg(long, value_enum, default_value_t = ShadingKind::Smooth)]
+        shading: ShadingKind,
+        /// PNG exposure (multiplier before tone mapping); default: the 95th percentile of lit pixels maps to 0.8.
+        #[arg(long)]
+        exposure: Option<f32>,
+    },
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum SolverKind {
+    GaussSeidel,
+    Progressive,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum ShadingKind {
+    Flat,
+    Smooth,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -134,69 +203,8 @@ fn run(cli: &Cli) -> Result<(), String> {
             let scene = load_scene(path, cli.patch_size).map_err(|e| e.to_string())?;
             let ids =
                 parse_patch_list(patches, scene.patches().len()).map_err(|e| e.to_string())?;
-            let grid = VoxelGrid::build(&scene, &default_grid()).map_err(|e| e.to_string())?;
-            // A bar when the job is long: over about 50 M rays.
-            let rays = ids.len() as u64 * hemi.n_cells() as u64;
-            let bar = if rays > 50_000_000 {
-                ProgressBar::new(ids.len() as u64)
-            } else {
-                ProgressBar::hidden()
-            };
-            bar.set_style(
-                ProgressStyle::with_template(
-                    "{msg} [{bar:40}] {pos}/{len} {prefix}, {elapsed} elapsed, eta {eta}",
-                )
-                .expect("a valid template")
-                .progress_chars("=> "),
-            );
-            let (rows, sources, method_name): (Vec<Row>, Vec<Option<u32>>, &str) = match method {
-                Method::Exact => {
-                    bar.set_message(format!("exact form factors {nt}x{np}"));
-                    bar.set_prefix("rows");
-                    let rows =
-                        compute_rows(&scene, &grid, &hemi, &ids, &|n| bar.set_position(n as u64))
-                            .map_err(|e| e.to_string())?;
-                    let n = rows.len();
-                    (rows, vec![None; n], "exact")
-                }
-                Method::Estimated => {
-                    let mode = match estimator {
-                        EstimatorMode::Faithful => Mode::Faithful,
-                        EstimatorMode::Improved => Mode::Improved,
-                    };
-                    let config = default_estimator(mode);
-                    bar.set_length(windows(&scene).len() as u64);
-                    bar.set_prefix("windows");
-                    bar.set_message(format!("estimated form factors {nt}x{np}"));
-                    let (rows, stats) = estimate_rows(&scene, &grid, &hemi, &config, &ids, &|n| {
-                        bar.set_position(n as u64)
-                    })
-                    .map_err(|e| e.to_string())?;
-                    bar.finish_and_clear();
-                    eprintln!(
-                        "{} rows cast exactly (window centres), {} estimated, {} cast exactly after needing real rays for over {:.0} % of their cells ({} real rays)",
-                        stats.exact,
-                        stats.estimated,
-                        stats.fallback_exact,
-                        100.0 * config.max_real_ray_share,
-                        stats.real_rays
-                    );
-                    let sources = rows
-                        .iter()
-                        .map(|r| match r.source {
-                            Source::Exact | Source::ExactFallback { .. } => None,
-                            Source::Estimated { from } => Some(from),
-                        })
-                        .collect();
-                    let name = if mode == Mode::Faithful {
-                        "estimated/faithful"
-                    } else {
-                        "estimated/improved"
-                    };
-                    (rows.into_iter().map(|r| r.row).collect(), sources, name)
-                }
-            };
-            bar.finish_and_clear();
+            let (rows, sources, method_name) =
+                form_factor_rows(&scene, &hemi, &ids, *method, *estimator)?;
             let leaked: Vec<u32> = rows
                 .iter()
                 .filter(|r| r.escaped > 0.0)
@@ -221,5 +229,191 @@ fn run(cli: &Cli) -> Result<(), String> {
                 write_rows_footer(w)
             })
         }
+        Command::Solve {
+            scene: path,
+            resolution,
+            method,
+            estimator,
+            solver,
+            tolerance,
+            raw,
+            out,
+        } => {
+            if !(tolerance.is_finite() && *tolerance > 0.0) {
+                return Err(format!(
+                    "--tolerance must be finite and > 0, not {tolerance}"
+                ));
+            }
+            let (nt, np) = parse_resolution(resolution).map_err(|e| e.to_string())?;
+            let hemi =
+                Hemisphere::new(HemisphereConfig::exact(nt, np)).map_err(|e| e.to_string())?;
+            let scene = load_scene(path, cli.patch_size).map_err(|e| e.to_string())?;
+            let n = scene.patches().len();
+            let all: Vec<u32> = (0..n as u32).collect();
+            let t = std::time::Instant::now();
+            let (rows, _, method_name) =
+                form_factor_rows(&scene, &hemi, &all, *method, *estimator)?;
+            let form_factors_seconds = t.elapsed().as_secs_f64();
+            let ff = FormFactors::from_rows(n, rows.iter().map(|r| (r.patch, &r.entries[..])))
+                .map_err(|e| e.to_string())?;
+            drop(rows);
+            let opts = SolveOptions {
+                solver: match solver {
+                    SolverKind::GaussSeidel => Solver::GaussSeidel,
+                    SolverKind::Progressive => Solver::Progressive,
+                },
+                config: SolveConfig {
+                    tolerance: *tolerance,
+                    ..SolveConfig::default()
+                },
+                reciprocal: !raw,
+            };
+            eprintln!("solving {n} patches ({})", opts.solver.name());
+            let surf = surfaces(&scene);
+            let solved = solve(&ff, &surf, &opts).map_err(|e| e.to_string())?;
+            let r = &solved.solution.report;
+            eprintln!(
+                "{} after {} iterations, residual {:.1e}; energy imbalance {:.1e}",
+                if r.converged {
+                    "converged"
+                } else {
+                    "NOT converged"
+                },
+                r.iterations,
+                r.residual,
+                solved.balance.relative_imbalance
+            );
+            let file = SolutionFile {
+                scene: &path.display().to_string(),
+                resolution: [nt, np],
+                method: method_name,
+                n_patches: n,
+                solver: SolverJson::new(&solved, &opts),
+                timings: Timings {
+                    form_factors_seconds,
+                    scaling_seconds: solved.scaling_seconds,
+                    solve_seconds: solved.solve_seconds,
+                },
+                ambient: solved.solution.ambient,
+                radiosity: solved.solution.radiosity.clone(),
+            };
+            let text = serde_json::to_string_pretty(&file).map_err(|e| e.to_string())?;
+            emit(Some(out), |w| w.write_all(text.as_bytes()))
+        }
+        Command::Render {
+            scene: path,
+            solution,
+            out,
+            png,
+            width,
+            height,
+            samples,
+            shading,
+            exposure,
+        } => {
+            let scene = load_scene(path, cli.patch_size).map_err(|e| e.to_string())?;
+            let text = std::fs::read_to_string(solution)
+                .map_err(|e| format!("cannot read {}: {e}", solution.display()))?;
+            let b =
+                read_solution(&text, &scene).map_err(|e| format!("{}: {e}", solution.display()))?;
+            let view = View::of_scene(&scene, *width, *height).map_err(|e| e.to_string())?;
+            let grid = VoxelGrid::build(&scene, &default_grid()).map_err(|e| e.to_string())?;
+            let cfg = RenderConfig {
+                samples: *samples,
+                shading: match shading {
+                    ShadingKind::Flat => Shading::Flat,
+                    ShadingKind::Smooth => Shading::Smooth,
+                },
+            };
+            let img = render(&scene, &grid, &view, &b, &cfg).map_err(|e| e.to_string())?;
+            write_exr(out, &img).map_err(|e| e.to_string())?;
+            if let Some(p) = png {
+                if let Some(x) = exposure {
+                    if !(x.is_finite() && *x > 0.0) {
+                        return Err(format!("--exposure must be finite and > 0, not {x}"));
+                    }
+                }
+                let e = exposure.unwrap_or_else(|| auto_exposure(&img));
+                write_png(p, &img, e).map_err(|e| e.to_string())?;
+            }
+            Ok(())
+        }
     }
+}
+
+type Rows = (Vec<Row>, Vec<Option<u32>>, &'static str);
+
+/// Rows of `ids` by `method`, with a progress bar on long jobs; sources are the patches
+/// estimated rows came from.
+fn form_factor_rows(
+    scene: &rad_geometry::Scene,
+    hemi: &Hemisphere,
+    ids: &[u32],
+    method: Method,
+    estimator: EstimatorMode,
+) -> Result<Rows, String> {
+    let (nt, np) = (hemi.n_theta(), hemi.n_phi());
+    let grid = VoxelGrid::build(scene, &default_grid()).map_err(|e| e.to_string())?;
+    // A bar when the job is long: over about 50 M rays.
+    let rays = ids.len() as u64 * hemi.n_cells() as u64;
+    let bar = if rays > 50_000_000 {
+        ProgressBar::new(ids.len() as u64)
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{msg} [{bar:40}] {pos}/{len} {prefix}, {elapsed} elapsed, eta {eta}",
+        )
+        .expect("a valid template")
+        .progress_chars("=> "),
+    );
+    let out: Rows = match method {
+        Method::Exact => {
+            bar.set_message(format!("exact form factors {nt}x{np}"));
+            bar.set_prefix("rows");
+            let rows = compute_rows(scene, &grid, hemi, ids, &|n| bar.set_position(n as u64))
+                .map_err(|e| e.to_string())?;
+            let n = rows.len();
+            (rows, vec![None; n], "exact")
+        }
+        Method::Estimated => {
+            let mode = match estimator {
+                EstimatorMode::Faithful => Mode::Faithful,
+                EstimatorMode::Improved => Mode::Improved,
+            };
+            let config = default_estimator(mode);
+            bar.set_length(windows(scene).len() as u64);
+            bar.set_prefix("windows");
+            bar.set_message(format!("estimated form factors {nt}x{np}"));
+            let (rows, stats) = estimate_rows(scene, &grid, hemi, &config, ids, &|n| {
+                bar.set_position(n as u64)
+            })
+            .map_err(|e| e.to_string())?;
+            bar.finish_and_clear();
+            eprintln!(
+                    "{} rows cast exactly (window centres), {} estimated, {} cast exactly after needing real rays for over {:.0} % of their cells ({} real rays)",
+                    stats.exact,
+                    stats.estimated,
+                    stats.fallback_exact,
+                    100.0 * config.max_real_ray_share,
+                    stats.real_rays
+                );
+            let sources = rows
+                .iter()
+                .map(|r| match r.source {
+                    Source::Exact | Source::ExactFallback { .. } => None,
+                    Source::Estimated { from } => Some(from),
+                })
+                .collect();
+            let name = if mode == Mode::Faithful {
+                "estimated/faithful"
+            } else {
+                "estimated/improved"
+            };
+            (rows.into_iter().map(|r| r.row).collect(), sources, name)
+        }
+    };
+    bar.finish_and_clear();
+    Ok(out)
 }

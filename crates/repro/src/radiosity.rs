@@ -236,7 +236,9 @@ pub fn read_solution(text: &str, scene: &Scene) -> Result<Vec<[f64; 3]>, Error> 
     }
     let triple = |x: &serde_json::Value, what: &str| -> Result<[f64; 3], Error> {
         let a = x.as_array().filter(|a| a.len() == 3);
-        let vals: Option<Vec<f64>> = a.map(|a| a.iter().map(|c| c.as_f64()).collect::<Option<_>>()).flatten();
+        let vals: Option<Vec<f64>> = a
+            .map(|a| a.iter().map(|c| c.as_f64()).collect::<Option<_>>())
+            .flatten();
         match vals {
             Some(v) if v.iter().all(|c| c.is_finite() && *c >= 0.0) => Ok([v[0], v[1], v[2]]),
             _ => Err(bad(format!("{what} is {x}, not three finite numbers >= 0"))),
@@ -251,7 +253,9 @@ pub fn read_solution(text: &str, scene: &Scene) -> Result<Vec<[f64; 3]>, Error> 
         .enumerate()
         .map(|(i, x)| {
             let r = triple(x, &format!("radiosity of patch {i}"))?;
-            Ok(std::array::from_fn(|c| r[c] + s.reflectance[i][c] * ambient[c]))
+            Ok(std::array::from_fn(|c| {
+                r[c] + s.reflectance[i][c] * ambient[c]
+            }))
         })
         .collect()
 }
@@ -273,14 +277,20 @@ mod tests {
         for (text, want) in [
             ("{", "not JSON"),
             ("{}", "no \"radiosity\""),
-            ("{\"radiosity\": [[1,1,1]]}", "1 radiosities for a scene of 24"),
+            (
+                "{\"radiosity\": [[1,1,1]]}",
+                "1 radiosities for a scene of 24",
+            ),
         ] {
             let e = read_solution(text, &scene).unwrap_err().to_string();
             assert!(e.contains(want), "{e}");
         }
         let mut bad = vec![[0.5, 0.25, 0.0]; 24];
         bad[5][1] = -1.0;
-        let text = format!("{{\"radiosity\": {}}}", serde_json::to_string(&bad).unwrap());
+        let text = format!(
+            "{{\"radiosity\": {}}}",
+            serde_json::to_string(&bad).unwrap()
+        );
         let e = read_solution(&text, &scene).unwrap_err().to_string();
         assert!(e.contains("radiosity of patch 5"), "{e}");
     }

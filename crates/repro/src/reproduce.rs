@@ -433,7 +433,13 @@ impl Reproduction {
 impl Reproduction {
     fn report_radiosity(&self, w: &mut String) {
         let l = &self.radiosity.loft;
-        let mins = |s: f64| format!("{} min {:04.1} s", (s / 60.0).floor(), s - 60.0 * (s / 60.0).floor());
+        let mins = |s: f64| {
+            format!(
+                "{} min {:04.1} s",
+                (s / 60.0).floor(),
+                s - 60.0 * (s / 60.0).floor()
+            )
+        };
         let _ = writeln!(w, "\n## Table 1: acceleration on the loft (report §4)\n");
         let _ = writeln!(
             w,
@@ -449,12 +455,16 @@ impl Reproduction {
         let _ = writeln!(
             w,
             "| report, without estimation | {} | {} | {:.2} s | | |",
-            r.hemispheres, mins(r.seconds_without_estimation), r.seconds_without_estimation / r.hemispheres as f64
+            r.hemispheres,
+            mins(r.seconds_without_estimation),
+            r.seconds_without_estimation / r.hemispheres as f64
         );
         let _ = writeln!(
             w,
             "| report, with estimation | {} | {} | {:.2} s | {:.2} | |",
-            r.hemispheres, mins(r.seconds_with_estimation), r.seconds_with_estimation / r.hemispheres as f64,
+            r.hemispheres,
+            mins(r.seconds_with_estimation),
+            r.seconds_with_estimation / r.hemispheres as f64,
             r.seconds_without_estimation / r.seconds_with_estimation
         );
         for (label, runs) in [("all patches", &l.all), ("subset", &l.subset)] {
@@ -462,9 +472,18 @@ impl Reproduction {
                 let _ = writeln!(
                     w,
                     "| ours, {}, {} | {} | {:.1} s | {:.2} ms | {} | {} |",
-                    label, m.method, m.hemispheres, m.seconds, m.ms_per_hemisphere,
-                    if m.method == "exact" { String::new() } else { format!("{:.2}", m.speedup_vs_exact) },
-                    m.mean_row_l1_vs_exact.map_or(String::new(), |v| format!("{v:.4}"))
+                    label,
+                    m.method,
+                    m.hemispheres,
+                    m.seconds,
+                    m.ms_per_hemisphere,
+                    if m.method == "exact" {
+                        String::new()
+                    } else {
+                        format!("{:.2}", m.speedup_vs_exact)
+                    },
+                    m.mean_row_l1_vs_exact
+                        .map_or(String::new(), |v| format!("{v:.4}"))
                 );
             }
         }
@@ -479,7 +498,10 @@ impl Reproduction {
         let _ = writeln!(
             w,
             "| report | {} | {} | | {:.2} s | {:.2} s | {:.3} | |",
-            r.exact_hemispheres, r.estimated_hemispheres, r.seconds_per_exact, r.seconds_per_estimate,
+            r.exact_hemispheres,
+            r.estimated_hemispheres,
+            r.seconds_per_exact,
+            r.seconds_per_estimate,
             r.seconds_per_estimate / r.seconds_per_exact
         );
         for (label, runs) in [("all patches", &l.all), ("subset", &l.subset)] {
@@ -487,8 +509,15 @@ impl Reproduction {
                 let _ = writeln!(
                     w,
                     "| ours, {}, {} | {} | {} | {} | {:.2} ms | {:.2} ms | {:.3} | {:.0} |",
-                    label, m.method, m.exact_hemispheres, m.estimated_hemispheres + m.fallback_exact, m.fallback_exact,
-                    m.ms_per_exact, m.ms_per_estimate, m.ms_per_estimate / m.ms_per_exact, m.real_rays_per_estimate
+                    label,
+                    m.method,
+                    m.exact_hemispheres,
+                    m.estimated_hemispheres + m.fallback_exact,
+                    m.fallback_exact,
+                    m.ms_per_exact,
+                    m.ms_per_estimate,
+                    m.ms_per_estimate / m.ms_per_exact,
+                    m.real_rays_per_estimate
                 );
             }
         }
@@ -509,16 +538,25 @@ impl Reproduction {
             let _ = writeln!(
                 w,
                 "| {} | {} | {:.1e} | {} | {:.1e} | {:.1e} | {} | {} | {} | {} |",
-                sr.method, sr.solver.iterations, sr.solver.residual,
-                sr.solver.reciprocity.as_ref().map_or(String::new(), |r| format!("{:.4}", r.mean_row_l1_change)),
-                sr.solver.energy.relative_imbalance, sr.solver.energy.relative_imbalance_unscaled_rows,
+                sr.method,
+                sr.solver.iterations,
+                sr.solver.residual,
+                sr.solver
+                    .reciprocity
+                    .as_ref()
+                    .map_or(String::new(), |r| format!("{:.4}", r.mean_row_l1_change)),
+                sr.solver.energy.relative_imbalance,
+                sr.solver.energy.relative_imbalance_unscaled_rows,
                 d.map_or("".into(), |d| format!("{:.2} %", 100.0 * d.mean)),
                 d.map_or("".into(), |d| format!("{:.2} %", 100.0 * d.p99)),
                 d.map_or("".into(), |d| format!("{:.1} %", 100.0 * d.max)),
                 d.map_or("".into(), |d| format!("{:.2} %", 100.0 * d.over_10_percent)),
             );
         }
-        let _ = writeln!(w, "\n### Cube and Cornell box: both solvers, energy balance, furnace (radiosity.json)\n");
+        let _ = writeln!(
+            w,
+            "\n### Cube and Cornell box: both solvers, energy balance, furnace (radiosity.json)\n"
+        );
         let _ = writeln!(
             w,
             "Exact rows of every patch; the cube's four central ceiling patches emit 1. Furnace: every patch emits 1 with reflectance 0.5, \
@@ -531,9 +569,18 @@ impl Reproduction {
                 let _ = writeln!(
                     w,
                     "| {} | {} | {}x{} | {} | {} | {:.1e} | {:.1e} | {:.1e} | {:.1e} | {} |",
-                    sc.scene, sc.patches, sc.resolution.0, sc.resolution.1, sj.solver, sj.iterations, sj.residual,
-                    sj.energy.relative_imbalance, sj.energy.relative_imbalance_unscaled_rows, sc.solver_difference,
-                    sc.furnace_max_rel_error.map_or("(open scene)".into(), |f| format!("{f:.1e}"))
+                    sc.scene,
+                    sc.patches,
+                    sc.resolution.0,
+                    sc.resolution.1,
+                    sj.solver,
+                    sj.iterations,
+                    sj.residual,
+                    sj.energy.relative_imbalance,
+                    sj.energy.relative_imbalance_unscaled_rows,
+                    sc.solver_difference,
+                    sc.furnace_max_rel_error
+                        .map_or("(open scene)".into(), |f| format!("{f:.1e}"))
                 );
             }
         }

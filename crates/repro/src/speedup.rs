@@ -297,7 +297,10 @@ fn three_methods(
 }
 
 /// Table 1, Table 2, the loft images, and the cube's and Cornell box's solutions.
-pub fn run(quick: bool, progress: &(dyn Fn(&str, usize, usize) + Sync)) -> Result<Radiosity, Error> {
+pub fn run(
+    quick: bool,
+    progress: &(dyn Fn(&str, usize, usize) + Sync),
+) -> Result<Radiosity, Error> {
     let wall = Instant::now();
     let cfg = SpeedupConfig::new(quick);
     let scene = Scene::new(loft())?;
@@ -306,22 +309,38 @@ pub fn run(quick: bool, progress: &(dyn Fn(&str, usize, usize) + Sync)) -> Resul
     let hemi = Hemisphere::new(HemisphereConfig::exact(cfg.resolution.0, cfg.resolution.1))?;
     let all: Vec<PatchId> = (0..n as PatchId).collect();
     let wins = windows(&scene);
-    let estimated_ids: Vec<PatchId> = wins.iter().flat_map(|w| w.estimated.iter().copied()).collect();
+    let estimated_ids: Vec<PatchId> = wins
+        .iter()
+        .flat_map(|w| w.estimated.iter().copied())
+        .collect();
 
     let (runs_all, matrices) = three_methods(
-        &scene, &grid, &hemi, &all, &estimated_ids, "Table 1, all loft patches", progress,
+        &scene,
+        &grid,
+        &hemi,
+        &all,
+        &estimated_ids,
+        "Table 1, all loft patches",
+        progress,
     )?;
 
     // The subset: every k-th window, about `subset_hemispheres` hemispheres.
     let per_window = n as f64 / wins.len() as f64;
-    let stride = ((wins.len() as f64 * per_window / cfg.subset_hemispheres as f64).round() as usize).max(1);
+    let stride =
+        ((wins.len() as f64 * per_window / cfg.subset_hemispheres as f64).round() as usize).max(1);
     let subset: Vec<PatchId> = wins
         .iter()
         .step_by(stride)
         .flat_map(|w| std::iter::once(w.centre).chain(w.estimated.iter().copied()))
         .collect();
     let (runs_subset, _) = three_methods(
-        &scene, &grid, &hemi, &subset, &[], "Table 1, subset", progress,
+        &scene,
+        &grid,
+        &hemi,
+        &subset,
+        &[],
+        "Table 1, subset",
+        progress,
     )?;
 
     // Solve and render each.
@@ -343,7 +362,11 @@ pub fn run(quick: bool, progress: &(dyn Fn(&str, usize, usize) + Sync)) -> Resul
     let mut images = Vec::new();
     let mut exact_image: Option<Image> = None;
     for (k, (m, run)) in matrices.iter().zip(&runs_all).enumerate() {
-        progress(&format!("solve and render the loft, {}", run.method), k + 1, 3);
+        progress(
+            &format!("solve and render the loft, {}", run.method),
+            k + 1,
+            3,
+        );
         let solved: Solved = solve(m, &s, &opts)?;
         let t = Instant::now();
         let img = render(&scene, &grid, &view, &solved.solution.display(&s), &rcfg)?;
@@ -362,7 +385,10 @@ pub fn run(quick: bool, progress: &(dyn Fn(&str, usize, usize) + Sync)) -> Resul
                 let (stem, diff_stem) = if mode == Some(DEFAULT_MODE) {
                     ("loft_estimated".to_string(), "loft_reldiff".to_string())
                 } else {
-                    (format!("loft_estimated_{name}"), format!("loft_reldiff_{name}"))
+                    (
+                        format!("loft_estimated_{name}"),
+                        format!("loft_reldiff_{name}"),
+                    )
                 };
                 images.push((stem, img, true));
                 images.push((diff_stem, diff, false));
@@ -381,14 +407,37 @@ pub fn run(quick: bool, progress: &(dyn Fn(&str, usize, usize) + Sync)) -> Resul
 
     let mut scenes = Vec::new();
     let cube_scene = Scene::new(cube(10))?;
-    scenes.push(scene_solves("cube", &cube_scene, cfg.resolution, cfg.tolerance, true, progress)?);
+    scenes.push(scene_solves(
+        "cube",
+        &cube_scene,
+        cfg.resolution,
+        cfg.tolerance,
+        true,
+        progress,
+    )?);
     let cornell = Scene::new(cornell_box(cfg.cornell_patch_mm))?;
-    let (solves_c, b) = scene_solves_with_b("cornell", &cornell, cfg.resolution, cfg.tolerance, false, progress)?;
+    let (solves_c, b) = scene_solves_with_b(
+        "cornell",
+        &cornell,
+        cfg.resolution,
+        cfg.tolerance,
+        false,
+        progress,
+    )?;
     scenes.push(solves_c);
     progress("render the Cornell box", 1, 1);
     let cgrid = VoxelGrid::build(&cornell, &default_grid())?;
     let cview = View::of_scene(&cornell, cfg.cornell_image.0, cfg.cornell_image.1)?;
-    let cimg = render(&cornell, &cgrid, &cview, &b, &RenderConfig { samples: cfg.samples.max(2), shading: Shading::Smooth })?;
+    let cimg = render(
+        &cornell,
+        &cgrid,
+        &cview,
+        &b,
+        &RenderConfig {
+            samples: cfg.samples.max(2),
+            shading: Shading::Smooth,
+        },
+    )?;
     images.push(("cornell".to_string(), cimg, false));
 
     Ok(Radiosity {
@@ -449,7 +498,12 @@ fn scene_solves_with_b(
         let first = scene.polygons()[ceiling].first_patch() as usize;
         let (nu, _) = scene.polygons()[ceiling].grid();
         let mid = nu as usize / 2;
-        for (i, j) in [(mid - 1, mid - 1), (mid, mid - 1), (mid - 1, mid), (mid, mid)] {
+        for (i, j) in [
+            (mid - 1, mid - 1),
+            (mid, mid - 1),
+            (mid - 1, mid),
+            (mid, mid),
+        ] {
             s.emission[first + j * nu as usize + i] = [1.0; 3];
         }
     }
@@ -463,7 +517,12 @@ fn scene_solves_with_b(
     };
     let gs = solve(&ff, &s, &opts(Solver::GaussSeidel))?;
     let pr = solve(&ff, &s, &opts(Solver::Progressive))?;
-    let scale = gs.solution.radiosity.iter().flatten().fold(0.0f64, |m, v| m.max(*v));
+    let scale = gs
+        .solution
+        .radiosity
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, v| m.max(*v));
     let solver_difference = gs
         .solution
         .radiosity

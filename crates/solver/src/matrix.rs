@@ -298,7 +298,8 @@ impl FormFactors {
         // x = 0. `iterations` counts products by G.
         let active: Vec<bool> = target.iter().map(|&t| t > 0.0).collect();
         let mut x: Vec<f64> = active.iter().map(|&a| if a { 1.0 } else { 0.0 }).collect();
-        let spmv = |v: &[f64]| -> Vec<f64> { (0..n).into_par_iter().map(|i| g_dot(i, v)).collect() };
+        let spmv =
+            |v: &[f64]| -> Vec<f64> { (0..n).into_par_iter().map(|i| g_dot(i, v)).collect() };
         let dot = |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(p, q)| p * q).sum() };
         let mut iterations = 0;
         let mut worst;
@@ -313,10 +314,22 @@ impl FormFactors {
                 break;
             }
             let d: Vec<f64> = (0..n)
-                .map(|i| if active[i] && x[i] > 0.0 { gx[i] / x[i] } else { 1.0 })
+                .map(|i| {
+                    if active[i] && x[i] > 0.0 {
+                        gx[i] / x[i]
+                    } else {
+                        1.0
+                    }
+                })
                 .collect();
             let r: Vec<f64> = (0..n)
-                .map(|i| if active[i] { (target[i] - x[i] * gx[i]) / x[i] } else { 0.0 })
+                .map(|i| {
+                    if active[i] {
+                        (target[i] - x[i] * gx[i]) / x[i]
+                    } else {
+                        0.0
+                    }
+                })
                 .collect();
             let r_norm = dot(&r, &r).sqrt();
             let eta = worst.sqrt().min(0.5);
@@ -364,7 +377,10 @@ impl FormFactors {
                 }
             }
         }
-        if x.iter().zip(&active).any(|(v, &a)| !v.is_finite() || (a && *v <= 0.0)) {
+        if x.iter()
+            .zip(&active)
+            .any(|(v, &a)| !v.is_finite() || (a && *v <= 0.0))
+        {
             return Err(Error::NoReciprocalScaling { iterations });
         }
         let mut row_start = Vec::with_capacity(n + 1);

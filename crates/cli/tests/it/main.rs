@@ -213,3 +213,122 @@ fn estimated_form_factors_name_their_source() {
         }
     }
 }
+
+#[test]
+fn solve_then_render_the_cornell_box() {
+    let dir = tempfile::tempdir().unwrap();
+    let sol = dir.path().join("solution.json");
+    let exr = dir.path().join("image.exr");
+    let png = dir.path().join("image.png");
+    let scene = bench_scene("cornell.json");
+    let s = scene.display().to_string();
+    for solver in ["gauss-seidel", "progressive"] {
+        let out = coherad(&[
+            "solve",
+            &s,
+            "--resolution",
+            "20x80",
+            "--solver",
+            solver,
+            "--out",
+            sol.to_str().unwrap(),
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&sol).unwrap()).unwrap();
+        assert_eq!(v["solver"]["solver"], solver);
+        assert_eq!(v["solver"]["converged"], true);
+        let imbalance = v["solver"]["energy"]["relative_imbalance"]
+            .as_f64()
+            .unwrap();
+        assert!(imbalance < 1e-6, "{imbalance}");
+        let b = v["radiosity"].as_array().unwrap();
+        assert_eq!(b.len() as u64, v["n_patches"].as_u64().unwrap());
+    }
+    let out = coherad(&[
+        "render",
+        &s,
+        "--solution",
+        sol.to_str().unwrap(),
+        "--out",
+        exr.to_str().unwrap(),
+        "--png",
+        png.to_str().unwrap(),
+        "--width",
+        "40",
+        "--height",
+        "30",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let exr_bytes = std::fs::read(&exr).unwrap();
+    assert_eq!(&exr_bytes[..4], &[0x76, 0x2f, 0x31, 0x01], "EXR magic");
+    let png_bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&png_bytes[1..4], b"PNG");
+
+    // Another scene's solution is refused, and nothing is written.
+    let other = dir.path().join("other.exr");
+    let out = coherad(&[
+        "render",
+        &bench_scene("cube.json").display().to_string(),
+        "--solution",
+        sol.to_str().unwrap(),
+        "--out",
+        other.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("radiosities for a scene of 600 patches"),
+        "{err}"
+    );
+    assert!(!other.exists());
+    // A missing solution file names itself.
+    let out = coherad(&[
+        "render",
+        &s,
+        "--solution",
+        "no/such.json",
+        "--out",
+        other.to_str().unwrap(),
+    ]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no/such.json"));
+    // Impossible sizes and tolerances are refused.
+    let out = coherad(&[
+        "render",
+        &s,
+        "--solution",
+        sol.to_str().unwrap(),
+        "--out",
+        other.to_str().unwrap(),
+        "--width",
+        "0",
+    ]);
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("image size 0x480"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = coherad(&[
+        "solve",
+        &s,
+        "--resolution",
+        "8x32",
+        "--tolerance=-1",
+        "--out",
+        other.to_str().unwrap(),
+    ]);
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("tolerance"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!other.exists());
+}

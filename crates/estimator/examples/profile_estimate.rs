@@ -1,0 +1,59 @@
+//! Estimates loft hemispheres at 180 × 720 in one mode, for instruction counts under
+//! `valgrind --tool=callgrind`: `MODE=faithful|improved cargo run --release -p
+//! rad-estimator --example profile_estimate`.
+
+use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
+use rad_core::RayCast;
+use rad_estimator::{
+    windows, Estimator, EstimatorConfig, HoleFill, Mode, Reprojection, SourceHemisphere,
+    ThresholdTest,
+};
+use rad_geometry::scenes::loft;
+use rad_geometry::Scene;
+use rad_hemisphere::{Hemisphere, HemisphereConfig};
+
+fn main() {
+    let mode = match std::env::var("MODE").as_deref() {
+        Ok("faithful") => Mode::Faithful,
+        _ => Mode::Improved,
+    };
+    let config = EstimatorConfig {
+        mode,
+        fill: HoleFill::RingNeighbour,
+        reprojection: Reprojection::FirstOrder {
+            test: ThresholdTest::Lateral,
+            threshold: 10.0,
+        },
+        boundary_lists: false,
+        max_real_ray_share: 0.05,
+    };
+    let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).expect("valid resolution");
+    let scene = Scene::new(loft()).expect("valid loft");
+    let grid_cfg = VoxelGridConfig {
+        resolution: GridResolution::Auto {
+            density: 4.0,
+            max_per_axis: 256,
+        },
+    };
+    let grid = VoxelGrid::build(&scene, &grid_cfg).expect("valid grid");
+    let mut scratch = grid.new_scratch();
+    let all = windows(&scene);
+    let est = Estimator::new(&hemi);
+    let mut cells = 0usize;
+    for k in 0..4 {
+        let w = &all[(k * 509 + 100) % all.len()];
+        let src = SourceHemisphere::cast(&scene, &grid, &hemi, w.centre, false, &mut scratch);
+        for &p in &w.estimated {
+            let n = match mode {
+                Mode::Faithful => est.faithful(&scene, &src, p, &config).items.patch.len(),
+                Mode::Improved => est
+                    .improved(&scene, &grid, &src, p, &config, &mut scratch)
+                    .items
+                    .patch
+                    .len(),
+            };
+            cells += n;
+        }
+    }
+    println!("{cells} cells estimated");
+}
