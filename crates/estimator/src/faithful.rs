@@ -135,6 +135,56 @@ impl CellTrig {
         }
         Some(k * self.n_phi + l)
     }
+
+    /// [`CellTrig::cell_of_vector`], starting from a guessed cell (ring `gk`, sector
+    /// `gl`): the guess and its neighbours are checked against the cell edges first
+    /// (cheap when the guess is within a cell, as first-order guesses of nearby points
+    /// mostly are); otherwise the table and polynomial path. Same answer.
+    #[inline(always)]
+    pub fn cell_of_vector_near(
+        &self,
+        q: [f32; 3],
+        r2: f32,
+        gk: usize,
+        gl: usize,
+    ) -> Option<(usize, usize)> {
+        if !(q[2] > 0.0) {
+            return None;
+        }
+        let full = || self.cell_of_vector(q, r2).map(|c| (c / self.n_phi, c % self.n_phi));
+        if self.n_phi < 8 || self.n_theta < 3 {
+            return full();
+        }
+        let c2 = q[2] * q[2] / r2;
+        let e = &self.cos2_edge;
+        let nt = self.n_theta;
+        let ring_ok = |k: usize| (k == 0 || c2 <= e[k]) && (k + 1 == nt || c2 > e[k + 1]);
+        let k = if ring_ok(gk) {
+            gk
+        } else if gk > 0 && ring_ok(gk - 1) {
+            gk - 1
+        } else if gk + 1 < nt && ring_ok(gk + 1) {
+            gk + 1
+        } else {
+            return full();
+        };
+        let cross = |e: [f32; 2]| e[0] * q[1] - e[1] * q[0];
+        let pe = &self.phi_edge;
+        let sector_ok = |l: usize| cross(pe[l]) >= 0.0 && cross(pe[l + 1]) < 0.0;
+        let n = self.n_phi;
+        let left = if gl == 0 { n - 1 } else { gl - 1 };
+        let right = if gl + 1 == n { 0 } else { gl + 1 };
+        let l = if sector_ok(gl) {
+            gl
+        } else if sector_ok(left) {
+            left
+        } else if sector_ok(right) {
+            right
+        } else {
+            return full();
+        };
+        Some((k, l))
+    }
 }
 
 /// Size of [`CellTrig::ring_of_c2`].
@@ -217,6 +267,7 @@ pub(crate) fn splat(
     // z-buffered writes. The z-buffer holds squared distances until the end.
     let mut dest = vec![NOWHERE; n_phi];
     let mut dist2 = vec![0.0f32; n_phi];
+    let mut guess = vec![[0u32; 2]; n_phi];
     let project = |i: usize, j: usize, r: f32| -> (u32, f32) {
         let (st, ct) = (trig.st[i], trig.ct[i]);
         let far_scale = if lateral {
@@ -262,13 +313,83 @@ pub(crate) fn splat(
             }
         }
     };
-    for i in 0..hemi.n_theta() {
+    // First-order destinations in cell units, for a whole ring at once (branch-free, so
+    // it vectorises): θ index `i + ½ − (cosθ a_j − sinθ d_z) / (R Δθ)`, φ index
+    // `j + ½ − b_j / (R sinθ Δφ)`; a point that fails the threshold test, crosses the
+    // pole or moves over half a turn is marked for `project` (the exact path).
+    let ka: Vec<f32> = a.iter().map(|&x| x * trig.inv_d_theta).collect();
+    let kb: Vec<f32> = b.iter().map(|&x| x * trig.inv_d_phi).collect();
+    let jc: Vec<f32> = (0..n_phi).map(|j| j as f32 + 0.5).collect();
+    let n_theta = hemi.n_theta();
+    let (nf, ntf) = (n_phi as f32, n_theta as f32);
+    for i in 0..n_theta {
         let ring = i * n_phi;
-        for j in 0..n_phi {
-            (dest[j], dist2[j]) = project(i, j, src.items.dist[ring + j]);
+        let (st, ct) = (trig.st[i], trig.ct[i]);
+        let near_limit = if lateral {
+            threshold * len / st
+        } else if st >= 0.05 {
+            threshold * len
+        } else {
+            f32::INFINITY
+        };
+        let fi0 = i as f32 + 0.5;
+        let kd = st * d[2] * trig.inv_d_theta;
+        let inv_st = 1.0 / st;
+        let dists = &src.items.dist[ring..ring + n_phi];
+        for ((&r, (&ka, &kb)), (&jc, (&a, ((dd, d2), g)))) in dists
+            .iter()
+            .zip(ka.iter().zip(&kb))
+            .zip(jc.iter().zip(a.iter().zip(dest.iter_mut().zip(dist2.iter_mut()).zip(guess.iter_mut()))))
+        {
+            let inv_r = 1.0 / r;
+            let fi = fi0 - (ct * ka - kd) * inv_r;
+            let fj = jc - kb * inv_st * inv_r;
+            let r2 = r - (st * a + ct * d[2]);
+            let ok = (r > near_limit) & (fi >= 0.0) & (fj > -0.5 * nf) & (fj < 1.5 * nf);
+            let below = fi >= ntf;
+            let ki = fi as i32;
+            let mut kj = (fj + nf) as i32 - n_phi as i32;
+            kj += if kj < 0 { n_phi as i32 } else { 0 };
+            kj -= if kj >= n_phi as i32 { n_phi as i32 } else { 0 };
+            let cell = (ki as u32).wrapping_mul(n_phi as u32).wrapping_add(kj as u32);
+            *dd = if !ok {
+                EXACT_PATH
+            } else if below {
+                NOWHERE
+            } else {
+                cell
+            };
+            *d2 = r2 * r2;
+            *g = [
+                ki.clamp(0, n_theta as i32 - 1) as u32,
+                kj.clamp(0, n_phi as i32 - 1) as u32,
+            ];
         }
+        // Exact-path guesses: the previous exact-path cell of the ring (neighbouring
+        // points of a surface land next to each other), else the first-order cell.
+        let mut prev: Option<[u32; 2]> = None;
         for j in 0..n_phi {
-            put(dest[j], dist2[j], src.items.patch[ring + j]);
+            let (cell, r2) = if dest[j] == EXACT_PATH {
+                let r = src.items.dist[ring + j];
+                if r.is_finite() {
+                    // The exact reprojection, from the first-order guess.
+                    let q = [
+                        r * st * trig.cp[j] - d[0],
+                        r * st * trig.sp[j] - d[1],
+                        r * ct - d[2],
+                    ];
+                    let r2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+                    let [gk, gl] = prev.unwrap_or(guess[j]);
+                    let c = trig.cell_of_vector_near(q, r2, gk as usize, gl as usize);
+                    prev = c.map(|(k, l)| [k as u32, l as u32]);
+                    (c.map_or(NOWHERE, |(k, l)| (k * n_phi + l) as u32), r2)
+                } else {
+                    project(i, j, r)
+                }
+            } else {
+                (dest[j], dist2[j])
+            };
+            put(cell, r2, src.items.patch[ring + j]);
             for &(id, r) in src.list(ring + j) {
                 let (cell, r2) = project(i, j, r);
                 put(cell, r2, id);
@@ -282,6 +403,8 @@ pub(crate) fn splat(
 
 /// No destination: the point left the hemisphere.
 const NOWHERE: u32 = u32::MAX;
+/// Destination to be found by the exact path.
+const EXACT_PATH: u32 = u32::MAX - 1;
 
 /// Fills holes in `ids` (marked `HOLE`) by `fill`; `source(c)` is H1's entry of cell
 /// `c`. Returns the number of holes and their form factor.
