@@ -83,51 +83,77 @@ pub(crate) fn estimate_improved_with<C: RayCast>(
     out.items.dist.reserve(hemi.n_cells());
     let mut ray = Ray::new(o, frame.n);
     ray.skip = own;
-    // Each candidate polygon's terms for this origin, computed once.
-    let mut terms_of: Vec<Option<[f32; 3]>> = vec![None; polygons.len()];
-    for i in 0..n_theta {
-        for j in 0..n_phi {
-            let d = frame.world_from_local(hemi.directions()[i * n_phi + j]);
-            // Candidates: this cell's guess and its 8 neighbours' (φ wraps, θ clamps).
+    // Every polygon's terms for this origin, computed once (a few hundred flops).
+    let terms_of: Vec<[f32; 3]> = polygons.iter().map(|p| p.origin_terms(o)).collect();
+    let usable = |g: u32| g != NO_GUESS && g != HOLE && g != own;
+    // Whether cell j's row-neighbours (j − 1, j, j + 1, φ wrapping) guess alike, for the
+    // rings i − 1, i and i + 1 (θ clamping): a cell is uniform when its 3 × 3 block is.
+    let row_alike = |r: usize, out: &mut Vec<bool>| {
+        let g = &guess[r * n_phi..(r + 1) * n_phi];
+        out.clear();
+        out.extend((0..n_phi).map(|j| {
             let (jl, jr) = (
                 if j == 0 { n_phi - 1 } else { j - 1 },
                 if j + 1 == n_phi { 0 } else { j + 1 },
             );
-            let rows = [i.saturating_sub(1), i, (i + 1).min(n_theta - 1)];
+            g[jl] == g[j] && g[j] == g[jr]
+        }));
+    };
+    let (mut above, mut here, mut below) = (Vec::new(), Vec::new(), Vec::new());
+    row_alike(0, &mut here);
+    above.clone_from(&here);
+    for i in 0..n_theta {
+        let i_below = (i + 1).min(n_theta - 1);
+        row_alike(i_below, &mut below);
+        let rows = [i.saturating_sub(1), i, i_below];
+        let dirs = &hemi.directions()[i * n_phi..(i + 1) * n_phi];
+        for j in 0..n_phi {
+            let d = frame.world_from_local(dirs[j]);
+            let g0 = guess[i * n_phi + j];
+            // Fast path: the whole 3 × 3 block guesses one polygon (most cells): one
+            // ray-polygon test; a front hit is the answer.
+            let uniform = above[j]
+                && here[j]
+                && below[j]
+                && guess[rows[0] * n_phi + j] == g0
+                && guess[rows[2] * n_phi + j] == g0;
+            if uniform && usable(g0) {
+                let poly = &polygons[g0 as usize];
+                out.tests += 1;
+                if let Some((t, u, v, true)) =
+                    poly.intersect_from(terms_of[g0 as usize], d, f32::INFINITY)
+                {
+                    out.items.patch.push(poly.patch_at(u, v));
+                    out.items.dist.push(t);
+                    continue;
+                }
+            }
             let mut cand = [NO_GUESS; 9];
             let mut n_cand = 0;
-            let g0 = guess[i * n_phi + j];
-            // Fast path: the whole 3 × 3 block guesses one polygon (most cells).
-            let uniform = rows.iter().all(|&r| {
-                let b = r * n_phi;
-                guess[b + jl] == g0 && guess[b + j] == g0 && guess[b + jr] == g0
-            });
-            if uniform {
-                if g0 != NO_GUESS && g0 != HOLE && g0 != own {
-                    cand[0] = g0;
-                    n_cand = 1;
-                }
-            } else {
+            if !uniform {
+                let (jl, jr) = (
+                    if j == 0 { n_phi - 1 } else { j - 1 },
+                    if j + 1 == n_phi { 0 } else { j + 1 },
+                );
                 for r in rows {
                     for jj in [jl, j, jr] {
                         let g = guess[r * n_phi + jj];
-                        if g != NO_GUESS && g != HOLE && g != own && !cand[..n_cand].contains(&g) {
+                        if usable(g) && !cand[..n_cand].contains(&g) {
                             cand[n_cand] = g;
                             n_cand += 1;
                         }
                     }
                 }
+                cand[..n_cand].sort_unstable();
             }
             // The nearest hit among the candidates, whichever its side; ties go to the
             // lower polygon id, as in the grid. A back face nearest (something seen from
             // behind, or an occluder met from inside) is left to a real ray.
-            cand[..n_cand].sort_unstable();
             let mut best: Option<(f32, u32, f32, f32, bool)> = None;
             for &p in &cand[..n_cand] {
                 out.tests += 1;
                 let t_max = best.map_or(f32::INFINITY, |b| b.0);
-                let terms = *terms_of[p as usize]
-                    .get_or_insert_with(|| polygons[p as usize].origin_terms(o));
+                let terms = terms_of[p as usize];
                 if let Some((t, u, v, front)) = polygons[p as usize].intersect_from(terms, d, t_max)
                 {
                     best = Some((t, p, u, v, front));
@@ -150,6 +176,8 @@ pub(crate) fn estimate_improved_with<C: RayCast>(
             out.items.patch.push(id);
             out.items.dist.push(dist);
         }
+        std::mem::swap(&mut above, &mut here);
+        std::mem::swap(&mut here, &mut below);
     }
     let _ = config;
     out

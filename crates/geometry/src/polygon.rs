@@ -486,9 +486,14 @@ impl Polygon {
     /// Cell (i, j) of parameters (u, v), clamped to the grid.
     pub fn cell_at(&self, u: f32, v: f32) -> (u32, u32) {
         let [u0, su, v0, sv] = self.grid_map;
-        let i = (((u - u0) * su) as i32).clamp(0, self.nu as i32 - 1) as u32;
-        let j = (((v - v0) * sv) as i32).clamp(0, self.nv as i32 - 1) as u32;
-        (i, j)
+        // Clamped in f32 first: `max` drops a NaN (to 0), and (n − 1) is exact in f32
+        // (n ≤ 2^24), so the truncation below is in range; the same cells as truncating
+        // to an integer and clamping that.
+        let fi = ((u - u0) * su).max(0.0).min((self.nu - 1) as f32);
+        let fj = ((v - v0) * sv).max(0.0).min((self.nv - 1) as f32);
+        debug_assert!((0.0..=(MAX_CELLS_PER_POLYGON as f32)).contains(&fi));
+        // SAFETY: fi and fj are finite and in [0, n − 1] ⊂ u32's range.
+        unsafe { (fi.to_int_unchecked::<u32>(), fj.to_int_unchecked::<u32>()) }
     }
     pub fn first_patch(&self) -> PatchId {
         self.first_patch
