@@ -92,7 +92,8 @@ impl CellTrig {
         let x = phi * self.inv_d_phi - self.shift;
         if x >= 0.0 && x < (3 * n) as f32 {
             // Truncation is floor here; at most two turns to take off.
-            let mut l = x as usize;
+            // SAFETY: x is finite and in [0, 3n), within u32's range.
+            let mut l = unsafe { x.to_int_unchecked::<u32>() } as usize;
             for _ in 0..2 {
                 l = if l >= n { l - n } else { l };
             }
@@ -112,8 +113,12 @@ impl CellTrig {
             return None;
         }
         let c2 = q[2] * q[2] / r2;
-        let mut k =
-            self.ring_of_c2[((c2 * RING_TABLE as f32) as usize).min(RING_TABLE - 1)] as usize;
+        // c2 is in [0, 1] (a NaN, from a point at C2 itself, goes to 0 by `max`).
+        let t = (c2 * RING_TABLE as f32)
+            .max(0.0)
+            .min((RING_TABLE - 1) as f32);
+        // SAFETY: t is finite and in [0, RING_TABLE − 1].
+        let mut k = self.ring_of_c2[unsafe { t.to_int_unchecked::<u32>() } as usize] as usize;
         while k > 0 && c2 > self.cos2_edge[k] {
             k -= 1;
         }
@@ -151,7 +156,10 @@ impl CellTrig {
         if !(q[2] > 0.0) {
             return None;
         }
-        let full = || self.cell_of_vector(q, r2).map(|c| (c / self.n_phi, c % self.n_phi));
+        let full = || {
+            self.cell_of_vector(q, r2)
+                .map(|c| (c / self.n_phi, c % self.n_phi))
+        };
         if self.n_phi < 8 || self.n_theta < 3 {
             return full();
         }
@@ -336,10 +344,13 @@ pub(crate) fn splat(
         let kd = st * d[2] * trig.inv_d_theta;
         let inv_st = 1.0 / st;
         let dists = &src.items.dist[ring..ring + n_phi];
-        for ((&r, (&ka, &kb)), (&jc, (&a, ((dd, d2), g)))) in dists
-            .iter()
-            .zip(ka.iter().zip(&kb))
-            .zip(jc.iter().zip(a.iter().zip(dest.iter_mut().zip(dist2.iter_mut()).zip(guess.iter_mut()))))
+        for ((&r, (&ka, &kb)), (&jc, (&a, ((dd, d2), g)))) in
+            dists.iter().zip(ka.iter().zip(&kb)).zip(
+                jc.iter().zip(
+                    a.iter()
+                        .zip(dest.iter_mut().zip(dist2.iter_mut()).zip(guess.iter_mut())),
+                ),
+            )
         {
             let inv_r = 1.0 / r;
             let fi = fi0 - (ct * ka - kd) * inv_r;
@@ -347,11 +358,18 @@ pub(crate) fn splat(
             let r2 = r - (st * a + ct * d[2]);
             let ok = (r > near_limit) & (fi >= 0.0) & (fj > -0.5 * nf) & (fj < 1.5 * nf);
             let below = fi >= ntf;
-            let ki = fi as i32;
-            let mut kj = (fj + nf) as i32 - n_phi as i32;
+            // Clamped in f32 (`max` drops NaN) so that truncation is in range; cells out
+            // of range are already marked by `ok` and `below`.
+            let fi_c = fi.max(-1.0).min(ntf);
+            let fj_c = (fj + nf).max(0.0).min(3.0 * nf);
+            // SAFETY: both are finite and within i32's range.
+            let ki = unsafe { fi_c.to_int_unchecked::<i32>() };
+            let mut kj = unsafe { fj_c.to_int_unchecked::<i32>() } - n_phi as i32;
             kj += if kj < 0 { n_phi as i32 } else { 0 };
             kj -= if kj >= n_phi as i32 { n_phi as i32 } else { 0 };
-            let cell = (ki as u32).wrapping_mul(n_phi as u32).wrapping_add(kj as u32);
+            let cell = (ki as u32)
+                .wrapping_mul(n_phi as u32)
+                .wrapping_add(kj as u32);
             *dd = if !ok {
                 EXACT_PATH
             } else if below {
