@@ -88,8 +88,13 @@ impl CellTrig {
     /// for φ in [0, 6π), the range of the splat's angles.
     #[inline(always)]
     pub fn sector_of(&self, phi: f32) -> usize {
+        self.sector_of_x(phi * self.inv_d_phi - self.shift)
+    }
+
+    /// The sector of coordinate `x = φ / Δφ − shift`.
+    #[inline(always)]
+    pub fn sector_of_x(&self, x: f32) -> usize {
         let n = self.n_phi;
-        let x = phi * self.inv_d_phi - self.shift;
         if x >= 0.0 && x < (3 * n) as f32 {
             // Truncation is floor here; at most two turns to take off.
             // SAFETY: x is finite and in [0, 3n), within u32's range.
@@ -113,6 +118,15 @@ impl CellTrig {
             return None;
         }
         let c2 = q[2] * q[2] / r2;
+        let x = atan2_approx(q[1], q[0]) * self.inv_d_phi - self.shift;
+        Some(self.cell_from_parts(q, c2, x))
+    }
+
+    /// The cell of direction `q` (above the plane) from `c2 = cos²θ` and a first guess
+    /// `x` of its sector coordinate `φ / Δφ − shift`: ring by table, sector by `x`, each
+    /// corrected against the cell edges.
+    #[inline(always)]
+    pub fn cell_from_parts(&self, q: [f32; 3], c2: f32, x: f32) -> usize {
         // c2 is in [0, 1] (a NaN, from a point at C2 itself, goes to 0 by `max`).
         let t = (c2 * RING_TABLE as f32)
             .max(0.0)
@@ -125,8 +139,7 @@ impl CellTrig {
         while k + 1 < self.n_theta && c2 <= self.cos2_edge[k + 1] {
             k += 1;
         }
-        let a = atan2_approx(q[1], q[0]);
-        let mut l = self.sector_of(a);
+        let mut l = self.sector_of_x(x);
         // Corrections: q must lie on or after edge l and before edge l + 1.
         let cross = |e: [f32; 2]| e[0] * q[1] - e[1] * q[0];
         for _ in 0..4 {
@@ -138,92 +151,167 @@ impl CellTrig {
                 break;
             }
         }
-        Some(k * self.n_phi + l)
-    }
-
-    /// [`CellTrig::cell_of_vector`], starting from a guessed cell (ring `gk`, sector
-    /// `gl`): the guess and its neighbours are checked against the cell edges first
-    /// (cheap when the guess is within a cell, as first-order guesses of nearby points
-    /// mostly are); otherwise the table and polynomial path. Same answer.
-    #[inline(always)]
-    pub fn cell_of_vector_near(
-        &self,
-        q: [f32; 3],
-        r2: f32,
-        gk: usize,
-        gl: usize,
-    ) -> Option<(usize, usize)> {
-        if !(q[2] > 0.0) {
-            return None;
-        }
-        let full = || {
-            self.cell_of_vector(q, r2)
-                .map(|c| (c / self.n_phi, c % self.n_phi))
-        };
-        if self.n_phi < 8 || self.n_theta < 3 {
-            return full();
-        }
-        let c2 = q[2] * q[2] / r2;
-        let e = &self.cos2_edge;
-        let nt = self.n_theta;
-        let ring_ok = |k: usize| (k == 0 || c2 <= e[k]) && (k + 1 == nt || c2 > e[k + 1]);
-        let k = if ring_ok(gk) {
-            gk
-        } else if gk > 0 && ring_ok(gk - 1) {
-            gk - 1
-        } else if gk + 1 < nt && ring_ok(gk + 1) {
-            gk + 1
-        } else {
-            return full();
-        };
-        let cross = |e: [f32; 2]| e[0] * q[1] - e[1] * q[0];
-        let pe = &self.phi_edge;
-        let sector_ok = |l: usize| cross(pe[l]) >= 0.0 && cross(pe[l + 1]) < 0.0;
-        let n = self.n_phi;
-        let left = if gl == 0 { n - 1 } else { gl - 1 };
-        let right = if gl + 1 == n { 0 } else { gl + 1 };
-        let l = if sector_ok(gl) {
-            gl
-        } else if sector_ok(left) {
-            left
-        } else if sector_ok(right) {
-            right
-        } else {
-            return full();
-        };
-        Some((k, l))
+        k * self.n_phi + l
     }
 }
 
 /// Size of [`CellTrig::ring_of_c2`].
 const RING_TABLE: usize = 1 << 14;
 
-/// atan2 in [0, 2π) to about 1e-5 rad (a minimax polynomial on [0, 1], by octant).
-#[inline]
+/// atan2 in [0, 2π) to about 1e-5 rad (a minimax polynomial on [0, 1], by octant),
+/// without branches, so that a ring's worth vectorises; 0 for (0, 0).
+#[inline(always)]
 fn atan2_approx(y: f32, x: f32) -> f32 {
     use std::f32::consts::{FRAC_PI_2, PI, TAU};
     let (ax, ay) = (x.abs(), y.abs());
-    let (lo, hi) = if ax > ay { (ay, ax) } else { (ax, ay) };
-    if hi == 0.0 {
-        return 0.0;
-    }
-    let z = lo / hi;
+    let lo = ax.min(ay);
+    let hi = ax.max(ay);
+    let z = if hi > 0.0 { lo / hi } else { 0.0 };
     let z2 = z * z;
     let mut a = z
         * (0.999_977_26
             + z2 * (-0.332_623_47
                 + z2 * (0.193_543_46
                     + z2 * (-0.116_432_87 + z2 * (0.052_653_32 + z2 * -0.011_721_2)))));
-    if ay > ax {
-        a = FRAC_PI_2 - a;
-    }
-    if x < 0.0 {
-        a = PI - a;
-    }
+    a = if ay > ax { FRAC_PI_2 - a } else { a };
+    a = if x < 0.0 { PI - a } else { a };
     if y < 0.0 {
-        a = TAU - a;
+        TAU - a
+    } else {
+        a
     }
-    a
+}
+
+/// What a ring's pass needs besides the ring's distances.
+struct RingParams {
+    st: f32,
+    ct: f32,
+    near_limit: f32,
+    fi0: f32,
+    kd: f32,
+    inv_st: f32,
+    d: [f32; 3],
+    n: usize,
+    n_theta: usize,
+    inv_d_phi: f32,
+    shift: f32,
+}
+
+/// Per-sector inputs of a ring's pass (motion-dependent, the same for every ring).
+struct SectorTerms<'a> {
+    ka: &'a [f32],
+    kb: &'a [f32],
+    jc: &'a [f32],
+    a: &'a [f32],
+    cp: &'a [f32],
+    sp: &'a [f32],
+}
+
+/// A ring's pass output: the first-order destination (or `NOWHERE`, or `EXACT_PATH`
+/// where the test fails), the squared distance the z-buffer compares, and the exact
+/// path's q, cos²θ and sector coordinate.
+struct RingOut<'a> {
+    dest: &'a mut [u32],
+    dist2: &'a mut [f32],
+    q: [&'a mut [f32]; 3],
+    c2: &'a mut [f32],
+    x: &'a mut [f32],
+}
+
+/// Destinations of a ring's points, branch-free so that it vectorises: first order,
+/// θ index `i + ½ − (cosθ a_j − sinθ d_z) / (R Δθ)`, φ index `j + ½ − b_j / (R sinθ Δφ)`
+/// (a point that fails the threshold test, crosses the pole or moves over half a turn
+/// is marked `EXACT_PATH`); and the exact path's terms, `q = R ω − d`, for every point.
+#[inline(always)]
+fn ring_pass_body(r: &[f32], t: &SectorTerms, p: &RingParams, out: RingOut) {
+    let n = p.n;
+    let (r, ka, kb, jc, a, cp, sp) = (
+        &r[..n],
+        &t.ka[..n],
+        &t.kb[..n],
+        &t.jc[..n],
+        &t.a[..n],
+        &t.cp[..n],
+        &t.sp[..n],
+    );
+    let (dest, dist2, c2s, xs) = (
+        &mut out.dest[..n],
+        &mut out.dist2[..n],
+        &mut out.c2[..n],
+        &mut out.x[..n],
+    );
+    let [q0s, q1s, q2s] = out.q;
+    let (q0s, q1s, q2s) = (&mut q0s[..n], &mut q1s[..n], &mut q2s[..n]);
+    let (nf, ntf) = (n as f32, p.n_theta as f32);
+    let d = p.d;
+    for j in 0..n {
+        let r = r[j];
+        let inv_r = 1.0 / r;
+        let fi = p.fi0 - (p.ct * ka[j] - p.kd) * inv_r;
+        let fj = jc[j] - kb[j] * p.inv_st * inv_r;
+        let r1 = r - (p.st * a[j] + p.ct * d[2]);
+        let ok = (r > p.near_limit) & (fi >= 0.0) & (fj > -0.5 * nf) & (fj < 1.5 * nf);
+        let below = fi >= ntf;
+        // Clamped in f32 (`max` drops NaN) so that truncation is in range; cells out
+        // of range are already marked by `ok` and `below`.
+        let fi_c = fi.max(-1.0).min(ntf);
+        let fj_c = (fj + nf).max(0.0).min(3.0 * nf);
+        // SAFETY: both are finite and within i32's range.
+        let ki = unsafe { fi_c.to_int_unchecked::<i32>() };
+        let mut kj = unsafe { fj_c.to_int_unchecked::<i32>() } - n as i32;
+        kj += if kj < 0 { n as i32 } else { 0 };
+        kj -= if kj >= n as i32 { n as i32 } else { 0 };
+        let cell = (ki as u32).wrapping_mul(n as u32).wrapping_add(kj as u32);
+        // Exact: q = R ω − d.
+        let rs = r * p.st;
+        let q0 = rs * cp[j] - d[0];
+        let q1 = rs * sp[j] - d[1];
+        let q2 = r * p.ct - d[2];
+        let r2 = q0 * q0 + q1 * q1 + q2 * q2;
+        c2s[j] = q2 * q2 / r2;
+        xs[j] = atan2_approx(q1, q0) * p.inv_d_phi - p.shift;
+        q0s[j] = q0;
+        q1s[j] = q1;
+        q2s[j] = q2;
+        dest[j] = if !ok {
+            EXACT_PATH
+        } else if below {
+            NOWHERE
+        } else {
+            cell
+        };
+        dist2[j] = if ok { r1 * r1 } else { r2 };
+    }
+}
+
+/// [`ring_pass_body`] compiled for AVX2 (8 lanes), chosen at run time where the CPU has
+/// it. Same IEEE operations in the same order (no contraction into FMA), so the same
+/// answers as the baseline build.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn ring_pass_avx2(r: &[f32], t: &SectorTerms, p: &RingParams, out: RingOut) {
+    ring_pass_body(r, t, p, out)
+}
+
+fn ring_pass(avx2: bool, r: &[f32], t: &SectorTerms, p: &RingParams, out: RingOut) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: the caller checked that the CPU has AVX2.
+        return unsafe { ring_pass_avx2(r, t, p, out) };
+    }
+    let _ = avx2;
+    ring_pass_body(r, t, p, out)
+}
+
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
 }
 
 /// The motion from `from`'s centre to `to`'s, in their polygon's frame.
@@ -275,7 +363,12 @@ pub(crate) fn splat(
     // z-buffered writes. The z-buffer holds squared distances until the end.
     let mut dest = vec![NOWHERE; n_phi];
     let mut dist2 = vec![0.0f32; n_phi];
-    let mut guess = vec![[0u32; 2]; n_phi];
+    let (mut q0s, mut q1s, mut q2s) = (
+        vec![0.0f32; n_phi],
+        vec![0.0f32; n_phi],
+        vec![0.0f32; n_phi],
+    );
+    let (mut c2s, mut xs) = (vec![0.0f32; n_phi], vec![0.0f32; n_phi]);
     let project = |i: usize, j: usize, r: f32| -> (u32, f32) {
         let (st, ct) = (trig.st[i], trig.ct[i]);
         let far_scale = if lateral {
@@ -321,88 +414,63 @@ pub(crate) fn splat(
             }
         }
     };
-    // First-order destinations in cell units, for a whole ring at once (branch-free, so
-    // it vectorises): θ index `i + ½ − (cosθ a_j − sinθ d_z) / (R Δθ)`, φ index
-    // `j + ½ − b_j / (R sinθ Δφ)`; a point that fails the threshold test, crosses the
-    // pole or moves over half a turn is marked for `project` (the exact path).
     let ka: Vec<f32> = a.iter().map(|&x| x * trig.inv_d_theta).collect();
     let kb: Vec<f32> = b.iter().map(|&x| x * trig.inv_d_phi).collect();
     let jc: Vec<f32> = (0..n_phi).map(|j| j as f32 + 0.5).collect();
-    let n_theta = hemi.n_theta();
-    let (nf, ntf) = (n_phi as f32, n_theta as f32);
-    for i in 0..n_theta {
+    let terms = SectorTerms {
+        ka: &ka,
+        kb: &kb,
+        jc: &jc,
+        a: &a,
+        cp: &trig.cp,
+        sp: &trig.sp,
+    };
+    let avx2 = has_avx2();
+    for i in 0..hemi.n_theta() {
         let ring = i * n_phi;
         let (st, ct) = (trig.st[i], trig.ct[i]);
-        let near_limit = if lateral {
-            threshold * len / st
-        } else if st >= 0.05 {
-            threshold * len
-        } else {
-            f32::INFINITY
-        };
-        let fi0 = i as f32 + 0.5;
-        let kd = st * d[2] * trig.inv_d_theta;
-        let inv_st = 1.0 / st;
-        let dists = &src.items.dist[ring..ring + n_phi];
-        for ((&r, (&ka, &kb)), (&jc, (&a, ((dd, d2), g)))) in
-            dists.iter().zip(ka.iter().zip(&kb)).zip(
-                jc.iter().zip(
-                    a.iter()
-                        .zip(dest.iter_mut().zip(dist2.iter_mut()).zip(guess.iter_mut())),
-                ),
-            )
-        {
-            let inv_r = 1.0 / r;
-            let fi = fi0 - (ct * ka - kd) * inv_r;
-            let fj = jc - kb * inv_st * inv_r;
-            let r2 = r - (st * a + ct * d[2]);
-            let ok = (r > near_limit) & (fi >= 0.0) & (fj > -0.5 * nf) & (fj < 1.5 * nf);
-            let below = fi >= ntf;
-            // Clamped in f32 (`max` drops NaN) so that truncation is in range; cells out
-            // of range are already marked by `ok` and `below`.
-            let fi_c = fi.max(-1.0).min(ntf);
-            let fj_c = (fj + nf).max(0.0).min(3.0 * nf);
-            // SAFETY: both are finite and within i32's range.
-            let ki = unsafe { fi_c.to_int_unchecked::<i32>() };
-            let mut kj = unsafe { fj_c.to_int_unchecked::<i32>() } - n_phi as i32;
-            kj += if kj < 0 { n_phi as i32 } else { 0 };
-            kj -= if kj >= n_phi as i32 { n_phi as i32 } else { 0 };
-            let cell = (ki as u32)
-                .wrapping_mul(n_phi as u32)
-                .wrapping_add(kj as u32);
-            *dd = if !ok {
-                EXACT_PATH
-            } else if below {
-                NOWHERE
+        let params = RingParams {
+            st,
+            ct,
+            near_limit: if lateral {
+                threshold * len / st
+            } else if st >= 0.05 {
+                threshold * len
             } else {
-                cell
-            };
-            *d2 = r2 * r2;
-            *g = [
-                ki.clamp(0, n_theta as i32 - 1) as u32,
-                kj.clamp(0, n_phi as i32 - 1) as u32,
-            ];
-        }
-        // Exact-path guesses: the previous exact-path cell of the ring (neighbouring
-        // points of a surface land next to each other), else the first-order cell.
-        let mut prev: Option<[u32; 2]> = None;
+                f32::INFINITY
+            },
+            fi0: i as f32 + 0.5,
+            kd: st * d[2] * trig.inv_d_theta,
+            inv_st: 1.0 / st,
+            d,
+            n: n_phi,
+            n_theta: hemi.n_theta(),
+            inv_d_phi: trig.inv_d_phi,
+            shift: trig.shift,
+        };
+        ring_pass(
+            avx2,
+            &src.items.dist[ring..ring + n_phi],
+            &terms,
+            &params,
+            RingOut {
+                dest: &mut dest,
+                dist2: &mut dist2,
+                q: [&mut q0s, &mut q1s, &mut q2s],
+                c2: &mut c2s,
+                x: &mut xs,
+            },
+        );
         for j in 0..n_phi {
             let (cell, r2) = if dest[j] == EXACT_PATH {
                 let r = src.items.dist[ring + j];
-                if r.is_finite() {
-                    // The exact reprojection, from the first-order guess.
-                    let q = [
-                        r * st * trig.cp[j] - d[0],
-                        r * st * trig.sp[j] - d[1],
-                        r * ct - d[2],
-                    ];
-                    let r2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
-                    let [gk, gl] = prev.unwrap_or(guess[j]);
-                    let c = trig.cell_of_vector_near(q, r2, gk as usize, gl as usize);
-                    prev = c.map(|(k, l)| [k as u32, l as u32]);
-                    (c.map_or(NOWHERE, |(k, l)| (k * n_phi + l) as u32), r2)
-                } else {
+                if !r.is_finite() {
                     project(i, j, r)
+                } else if q2s[j] > 0.0 {
+                    let q = [q0s[j], q1s[j], q2s[j]];
+                    (trig.cell_from_parts(q, c2s[j], xs[j]) as u32, dist2[j])
+                } else {
+                    (NOWHERE, dist2[j])
                 }
             } else {
                 (dest[j], dist2[j])
