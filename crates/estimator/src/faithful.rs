@@ -303,17 +303,6 @@ fn ring_pass(avx2: bool, r: &[f32], t: &SectorTerms, p: &RingParams, out: RingOu
     ring_pass_body(r, t, p, out)
 }
 
-fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 /// The motion from `from`'s centre to `to`'s, in their polygon's frame.
 pub(crate) fn motion(scene: &Scene, from: PatchId, to: PatchId) -> Motion {
     let (a, b) = (
@@ -425,7 +414,8 @@ pub(crate) fn splat(
         cp: &trig.cp,
         sp: &trig.sp,
     };
-    let avx2 = has_avx2();
+    let avx2 = rad_core::has_avx2();
+    let has_lists = src.has_lists();
     for i in 0..hemi.n_theta() {
         let ring = i * n_phi;
         let (st, ct) = (trig.st[i], trig.ct[i]);
@@ -461,9 +451,24 @@ pub(crate) fn splat(
                 x: &mut xs,
             },
         );
-        for j in 0..n_phi {
+        // Equal-length slices of the ring (no bounds checks in the loop).
+        let n = n_phi;
+        let (dest, dist2, q0s, q1s, q2s, c2s, xs) = (
+            &dest[..n],
+            &dist2[..n],
+            &q0s[..n],
+            &q1s[..n],
+            &q2s[..n],
+            &c2s[..n],
+            &xs[..n],
+        );
+        let (src_patch, src_dist) = (
+            &src.items.patch[ring..ring + n],
+            &src.items.dist[ring..ring + n],
+        );
+        for j in 0..n {
             let (cell, r2) = if dest[j] == EXACT_PATH {
-                let r = src.items.dist[ring + j];
+                let r = src_dist[j];
                 if !r.is_finite() {
                     project(i, j, r)
                 } else if q2s[j] > 0.0 {
@@ -475,10 +480,12 @@ pub(crate) fn splat(
             } else {
                 (dest[j], dist2[j])
             };
-            put(cell, r2, src.items.patch[ring + j]);
-            for &(id, r) in src.list(ring + j) {
-                let (cell, r2) = project(i, j, r);
-                put(cell, r2, id);
+            put(cell, r2, src_patch[j]);
+            if has_lists {
+                for &(id, r) in src.list(ring + j) {
+                    let (cell, r2) = project(i, j, r);
+                    put(cell, r2, id);
+                }
             }
         }
     }

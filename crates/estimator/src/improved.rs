@@ -5,7 +5,7 @@ use crate::config::{EstimatorConfig, HoleFill};
 use crate::faithful::{fill_holes, motion, splat, CellTrig, Estimator, HOLE};
 use crate::source::SourceHemisphere;
 use rad_core::{PatchId, Ray, RayCast};
-use rad_geometry::Scene;
+use rad_geometry::{Scene, MISS};
 use rad_hemisphere::{Hemisphere, ItemBuffer, BACK, ESCAPED};
 
 /// An estimated hemisphere from the improved mode.
@@ -102,22 +102,67 @@ pub(crate) fn estimate_improved_with<C: RayCast>(
     let (mut above, mut here, mut below) = (Vec::new(), Vec::new(), Vec::new());
     row_alike(0, &mut here);
     above.clone_from(&here);
+    let mut world = vec![glam::Vec3::ZERO; n_phi];
+    let mut uniform_of = vec![false; n_phi];
+    let mut batch_patch = vec![MISS; n_phi];
+    let mut batch_t = vec![0.0f32; n_phi];
+    let mut batched = vec![false; n_phi];
     for i in 0..n_theta {
         let i_below = (i + 1).min(n_theta - 1);
         row_alike(i_below, &mut below);
         let rows = [i.saturating_sub(1), i, i_below];
         let dirs = &hemi.directions()[i * n_phi..(i + 1) * n_phi];
+        let g_ring = &guess[i * n_phi..(i + 1) * n_phi];
         for j in 0..n_phi {
-            let d = frame.world_from_local(dirs[j]);
-            let g0 = guess[i * n_phi + j];
-            // Fast path: the whole 3 × 3 block guesses one polygon (most cells): one
-            // ray-polygon test; a front hit is the answer.
-            let uniform = above[j]
+            world[j] = frame.world_from_local(dirs[j]);
+            // The whole 3 × 3 block guesses one polygon (most cells).
+            let g0 = g_ring[j];
+            uniform_of[j] = above[j]
                 && here[j]
                 && below[j]
                 && guess[rows[0] * n_phi + j] == g0
                 && guess[rows[2] * n_phi + j] == g0;
-            if uniform && usable(g0) {
+        }
+        // Runs of uniform cells guessing one parallelogram: their single ray-polygon
+        // tests in one batch (`Polygon::front_hits_from`, the same arithmetic).
+        batched.fill(false);
+        let mut j = 0;
+        while j < n_phi {
+            let g0 = g_ring[j];
+            if !(uniform_of[j] && usable(g0)) {
+                j += 1;
+                continue;
+            }
+            let mut e = j + 1;
+            while e < n_phi && uniform_of[e] && g_ring[e] == g0 {
+                e += 1;
+            }
+            let poly = &polygons[g0 as usize];
+            if poly
+                .front_hits_from(
+                    terms_of[g0 as usize],
+                    &world[j..e],
+                    &mut batch_patch[j..e],
+                    &mut batch_t[j..e],
+                )
+                .is_some()
+            {
+                batched[j..e].fill(true);
+                out.tests += e - j;
+            }
+            j = e;
+        }
+        for j in 0..n_phi {
+            let d = world[j];
+            let g0 = g_ring[j];
+            let uniform = uniform_of[j];
+            if batched[j] {
+                if batch_patch[j] != MISS {
+                    out.items.patch.push(batch_patch[j]);
+                    out.items.dist.push(batch_t[j]);
+                    continue;
+                }
+            } else if uniform && usable(g0) {
                 let poly = &polygons[g0 as usize];
                 out.tests += 1;
                 if let Some((t, u, v, true)) =

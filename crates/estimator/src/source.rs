@@ -71,6 +71,11 @@ impl SourceHemisphere {
 
     /// The boundary-list entries of cell `c` (empty without lists).
     #[inline]
+    /// Whether boundary lists were built.
+    pub fn has_lists(&self) -> bool {
+        !self.list_start.is_empty()
+    }
+
     pub fn list(&self, c: usize) -> &[(PatchId, f32)] {
         if self.list_start.is_empty() {
             return &[];
