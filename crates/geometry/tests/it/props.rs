@@ -3,7 +3,7 @@
 
 use proptest::prelude::*;
 use rad_geometry::Scene;
-use rad_testkit::random_scene;
+use rad_testkit::{random_scene, unit_vector};
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(200))]
@@ -36,6 +36,41 @@ proptest! {
                     prop_assert!(cell[1].abs_diff(j) <= nv && scene.patches()[id].on_boundary);
                 } else {
                     prop_assert_eq!(cell, [i, j]);
+                }
+            }
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(100))]
+
+    /// The batched front-hit query gives, ray for ray, what `intersect_from` and
+    /// `patch_at` give (whichever of its builds, baseline or AVX2, this CPU runs).
+    #[test]
+    fn batched_front_hits_match_ray_by_ray(
+        desc in random_scene(4),
+        origin in (-2.0f32..3.0, -2.0f32..3.0, -2.0f32..3.0),
+        dirs in proptest::collection::vec(unit_vector(), 1..40),
+    ) {
+        let scene = Scene::new(desc).unwrap();
+        let o = glam::Vec3::new(origin.0, origin.1, origin.2);
+        for poly in scene.polygons() {
+            let terms = poly.origin_terms(o);
+            let mut patch = vec![0; dirs.len()];
+            let mut t = vec![0.0; dirs.len()];
+            match poly.front_hits_from(terms, &dirs, &mut patch, &mut t) {
+                None => prop_assert!(!poly.is_parallelogram()),
+                Some(()) => {
+                    for (k, &d) in dirs.iter().enumerate() {
+                        match poly.intersect_from(terms, d, f32::INFINITY) {
+                            Some((tt, u, v, true)) => {
+                                prop_assert_eq!(patch[k], poly.patch_at(u, v));
+                                prop_assert_eq!(t[k].to_bits(), tt.to_bits());
+                            }
+                            _ => prop_assert_eq!(patch[k], rad_geometry::MISS),
+                        }
+                    }
                 }
             }
         }
