@@ -193,6 +193,7 @@ struct RingParams {
     d: [f32; 3],
     n: usize,
     n_theta: usize,
+    inv_d_theta: f32,
     inv_d_phi: f32,
     shift: f32,
 }
@@ -212,6 +213,9 @@ struct SectorTerms<'a> {
 /// path's q, cos²θ and sector coordinate.
 struct RingOut<'a> {
     dest: &'a mut [u32],
+    /// The exact path's cell from the polynomial angles alone, uncorrected: off by one
+    /// cell for points within about 1e-5 rad of a cell edge (`NOWHERE` below the plane).
+    rough: &'a mut [u32],
     dist2: &'a mut [f32],
     q: [&'a mut [f32]; 3],
     c2: &'a mut [f32],
@@ -234,6 +238,7 @@ fn ring_pass_body(r: &[f32], t: &SectorTerms, p: &RingParams, out: RingOut) {
         &t.cp[..n],
         &t.sp[..n],
     );
+    let rough = &mut out.rough[..n];
     let (dest, dist2, c2s, xs) = (
         &mut out.dest[..n],
         &mut out.dist2[..n],
@@ -269,7 +274,22 @@ fn ring_pass_body(r: &[f32], t: &SectorTerms, p: &RingParams, out: RingOut) {
         let q2 = r * p.ct - d[2];
         let r2 = q0 * q0 + q1 * q1 + q2 * q2;
         c2s[j] = q2 * q2 / r2;
-        xs[j] = atan2_approx(q1, q0) * p.inv_d_phi - p.shift;
+        let x = atan2_approx(q1, q0) * p.inv_d_phi - p.shift;
+        xs[j] = x;
+        // Rough cell: θ = atan2(|q_xy|, q_z), sector from x (wrapped once each way).
+        let th = atan2_approx((q0 * q0 + q1 * q1).sqrt(), q2) * p.inv_d_theta;
+        let th_c = th.max(0.0).min(ntf - 1.0);
+        let x_c = (x + nf).max(0.0).min(3.0 * nf);
+        // SAFETY: finite and in range after the clamps (`max` drops NaN).
+        let rk = unsafe { th_c.to_int_unchecked::<i32>() };
+        let mut rl = unsafe { x_c.to_int_unchecked::<i32>() } - n as i32;
+        rl += if rl < 0 { n as i32 } else { 0 };
+        rl -= if rl >= n as i32 { n as i32 } else { 0 };
+        rough[j] = if q2 > 0.0 {
+            (rk as u32).wrapping_mul(n as u32).wrapping_add(rl as u32)
+        } else {
+            NOWHERE
+        };
         q0s[j] = q0;
         q1s[j] = q1;
         q2s[j] = q2;
@@ -324,6 +344,7 @@ pub(crate) fn splat(
     src: &SourceHemisphere,
     m: &Motion,
     config: &EstimatorConfig,
+    rough: bool,
     value: impl Fn(PatchId) -> PatchId,
     ids: &mut Vec<PatchId>,
     zbuf: &mut Vec<f32>,
@@ -358,6 +379,7 @@ pub(crate) fn splat(
         vec![0.0f32; n_phi],
     );
     let (mut c2s, mut xs) = (vec![0.0f32; n_phi], vec![0.0f32; n_phi]);
+    let mut roughs = vec![NOWHERE; n_phi];
     let project = |i: usize, j: usize, r: f32| -> (u32, f32) {
         let (st, ct) = (trig.st[i], trig.ct[i]);
         let far_scale = if lateral {
@@ -435,6 +457,7 @@ pub(crate) fn splat(
             d,
             n: n_phi,
             n_theta: hemi.n_theta(),
+            inv_d_theta: trig.inv_d_theta,
             inv_d_phi: trig.inv_d_phi,
             shift: trig.shift,
         };
@@ -445,6 +468,7 @@ pub(crate) fn splat(
             &params,
             RingOut {
                 dest: &mut dest,
+                rough: &mut roughs,
                 dist2: &mut dist2,
                 q: [&mut q0s, &mut q1s, &mut q2s],
                 c2: &mut c2s,
@@ -453,6 +477,7 @@ pub(crate) fn splat(
         );
         // Equal-length slices of the ring (no bounds checks in the loop).
         let n = n_phi;
+        let roughs = &roughs[..n];
         let (dest, dist2, q0s, q1s, q2s, c2s, xs) = (
             &dest[..n],
             &dist2[..n],
@@ -471,6 +496,8 @@ pub(crate) fn splat(
                 let r = src_dist[j];
                 if !r.is_finite() {
                     project(i, j, r)
+                } else if rough {
+                    (roughs[j], dist2[j])
                 } else if q2s[j] > 0.0 {
                     let q = [q0s[j], q1s[j], q2s[j]];
                     (trig.cell_from_parts(q, c2s[j], xs[j]) as u32, dist2[j])
@@ -607,6 +634,7 @@ pub(crate) fn estimate_faithful_with(
         src,
         &m,
         config,
+        false,
         |id| id,
         &mut out.items.patch,
         &mut out.items.dist,

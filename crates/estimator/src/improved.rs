@@ -62,8 +62,11 @@ pub(crate) fn estimate_improved_with<C: RayCast>(
     // 1. Splat polygons (z-buffered), fill holes with the ring neighbour's polygon.
     let mut guess = Vec::new();
     let mut zbuf = Vec::new();
+    // Guesses need not be exact: a cell tests its neighbours' guesses too, so the
+    // near points' cells come from the polynomial angles without edge corrections
+    // (off by one cell within about 1e-5 rad of an edge).
     splat(
-        hemi, trig, src, &m, config, polygon_of, &mut guess, &mut zbuf,
+        hemi, trig, src, &m, config, true, polygon_of, &mut guess, &mut zbuf,
     );
     let (holes, _) = fill_holes(hemi, &mut guess, HoleFill::RingNeighbour, |c| {
         polygon_of(src.items.patch[c])

@@ -82,8 +82,8 @@ fn sector_of_takes_any_angle() {
 
 #[test]
 fn the_avx2_ring_pass_gives_the_baseline_answers_bit_for_bit() {
-    use super::{has_avx2, ring_pass, RingOut, RingParams, SectorTerms};
-    if !has_avx2() {
+    use super::{ring_pass, RingOut, RingParams, SectorTerms};
+    if !rad_core::has_avx2() {
         return; // nothing to compare on this CPU: only the baseline runs here
     }
     let n = 720;
@@ -129,11 +129,12 @@ fn the_avx2_ring_pass_gives_the_baseline_answers_bit_for_bit() {
             d: [0.1, -0.05, 0.0],
             n,
             n_theta: 180,
+            inv_d_theta: 180.0 / std::f32::consts::FRAC_PI_2,
             inv_d_phi: n as f32 / std::f32::consts::TAU,
             shift: 0.0,
         };
         let run = |avx2: bool| {
-            let (mut dest, mut d2) = (vec![0u32; n], vec![0f32; n]);
+            let (mut dest, mut d2, mut rough) = (vec![0u32; n], vec![0f32; n], vec![0u32; n]);
             let (mut q0, mut q1, mut q2) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
             let (mut c2, mut x) = (vec![0f32; n], vec![0f32; n]);
             ring_pass(
@@ -143,6 +144,7 @@ fn the_avx2_ring_pass_gives_the_baseline_answers_bit_for_bit() {
                 &params,
                 RingOut {
                     dest: &mut dest,
+                    rough: &mut rough,
                     dist2: &mut d2,
                     q: [&mut q0, &mut q1, &mut q2],
                     c2: &mut c2,
@@ -152,6 +154,7 @@ fn the_avx2_ring_pass_gives_the_baseline_answers_bit_for_bit() {
             let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<u32>>();
             (
                 dest,
+                rough,
                 bits(&d2),
                 bits(&q0),
                 bits(&q1),
@@ -165,4 +168,87 @@ fn the_avx2_ring_pass_gives_the_baseline_answers_bit_for_bit() {
             "the AVX2 pass differs from the baseline at sinθ = {st}"
         );
     }
+}
+
+#[test]
+fn rough_cells_are_the_exact_cells_but_near_edges_where_they_are_one_off() {
+    use super::{ring_pass, RingOut, RingParams, SectorTerms, NOWHERE};
+    let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).unwrap();
+    let trig = CellTrig::new(&hemi);
+    let n = 720;
+    let mut seed = 0x0bad_cafe_dead_beefu64;
+    let zeros = vec![0.0f32; n];
+    let jc: Vec<f32> = (0..n).map(|j| j as f32 + 0.5).collect();
+    let terms = SectorTerms {
+        ka: &zeros,
+        kb: &zeros,
+        jc: &jc,
+        a: &zeros,
+        cp: &trig.cp,
+        sp: &trig.sp,
+    };
+    let (mut same, mut total) = (0usize, 0usize);
+    for i in (0..180).step_by(7) {
+        let r: Vec<f32> = (0..n)
+            .map(|_| (0.02 + 5.0 * rng(&mut seed)) as f32)
+            .collect();
+        let d = [
+            (0.3 * rng(&mut seed) - 0.15) as f32,
+            (0.3 * rng(&mut seed) - 0.15) as f32,
+            0.0,
+        ];
+        let params = RingParams {
+            st: trig.st[i],
+            ct: trig.ct[i],
+            near_limit: f32::INFINITY, // every point by the exact path
+            fi0: i as f32 + 0.5,
+            kd: 0.0,
+            inv_st: 1.0 / trig.st[i],
+            d,
+            n,
+            n_theta: 180,
+            inv_d_theta: trig.inv_d_theta,
+            inv_d_phi: trig.inv_d_phi,
+            shift: trig.shift,
+        };
+        let (mut dest, mut d2, mut rough) = (vec![0u32; n], vec![0f32; n], vec![0u32; n]);
+        let (mut q0, mut q1, mut q2) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
+        let (mut c2, mut x) = (vec![0f32; n], vec![0f32; n]);
+        ring_pass(
+            rad_core::has_avx2(),
+            &r,
+            &terms,
+            &params,
+            RingOut {
+                dest: &mut dest,
+                rough: &mut rough,
+                dist2: &mut d2,
+                q: [&mut q0, &mut q1, &mut q2],
+                c2: &mut c2,
+                x: &mut x,
+            },
+        );
+        for j in 0..n {
+            let q = [q0[j], q1[j], q2[j]];
+            let exact = trig.cell_of_vector(q, q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+            match exact {
+                None => assert_eq!(rough[j], NOWHERE),
+                Some(c) => {
+                    total += 1;
+                    let (k, l) = (c / n, c % n);
+                    let (rk, rl) = (rough[j] as usize / n, rough[j] as usize % n);
+                    let dl = l.abs_diff(rl).min(n - l.abs_diff(rl));
+                    assert!(
+                        k.abs_diff(rk) <= 1 && dl <= 1,
+                        "ring {k} vs {rk}, sector {l} vs {rl}"
+                    );
+                    same += usize::from(c == rough[j] as usize);
+                }
+            }
+        }
+    }
+    assert!(
+        same as f64 >= 0.99 * total as f64,
+        "{same} of {total} rough cells exact"
+    );
 }
