@@ -50,7 +50,7 @@ impl Default for SolveOptions {
 }
 
 /// Tolerance and iteration cap of the reciprocal scaling.
-const SCALING_TOLERANCE: f64 = 1e-10;
+const SCALING_TOLERANCE: f64 = 1e-9;
 const SCALING_ITERATIONS: usize = 5_000;
 
 /// A solve and what it says about energy.

@@ -391,12 +391,22 @@ impl FormFactors {
         let mut max_row_sum_error: f64 = 0.0;
         for (i, (cols, vals, _)) in rows.iter().enumerate() {
             let mut sum = 0.0;
+            // G's pattern holds F's row: walk both in column order.
+            let (fc, fv) = self.row(i as PatchId);
+            let scale = self.row_scale[i];
+            let mut k = 0;
             for (&j, &g) in cols.iter().zip(vals) {
                 // x_i x_j commutes exactly, so the stored value is symmetric bit for bit.
                 let stored = (g * (x[i] * x[j as usize])) as f32;
                 let f = stored as f64 / area[i];
                 sum += f;
-                change += (f - self.get(i as PatchId, j)).abs();
+                let old = if k < fc.len() && fc[k] == j {
+                    k += 1;
+                    fv[k - 1] as f64 * scale
+                } else {
+                    0.0
+                };
+                change += (f - old).abs();
                 column.push(j);
                 value.push(stored);
             }
