@@ -244,6 +244,14 @@ fn run(cli: &Cli) -> Result<(), String> {
                     "--tolerance must be finite and > 0, not {tolerance}"
                 ));
             }
+            if *raw && *solver == SolverKind::Progressive {
+                return Err(
+                    "--raw with --solver progressive cannot converge: shooting takes \
+                     F_ji from F_ij by reciprocity, which raw rows hold only to their \
+                     discretisation error; use --solver gauss-seidel, or drop --raw"
+                        .into(),
+                );
+            }
             let (nt, np) = parse_resolution(resolution).map_err(|e| e.to_string())?;
             let hemi =
                 Hemisphere::new(HemisphereConfig::exact(nt, np)).map_err(|e| e.to_string())?;
@@ -271,6 +279,12 @@ fn run(cli: &Cli) -> Result<(), String> {
             eprintln!("solving {n} patches ({})", opts.solver.name());
             let surf = surfaces(&scene);
             let solved = solve(&ff, &surf, &opts).map_err(|e| e.to_string())?;
+            if let Some(rec) = solved.reciprocity.filter(|r| !r.converged) {
+                eprintln!(
+                    "warning: the reciprocal scaling stopped after {} products with rows off their sums by up to {:.1e}; energy is conserved only to that",
+                    rec.iterations, rec.max_row_sum_error
+                );
+            }
             let r = &solved.solution.report;
             eprintln!(
                 "{} after {} iterations, residual {:.1e}; energy imbalance {:.1e}",
@@ -311,6 +325,14 @@ fn run(cli: &Cli) -> Result<(), String> {
             shading,
             exposure,
         } => {
+            if let Some(x) = exposure {
+                if png.is_none() {
+                    return Err("--exposure sets the PNG preview's exposure: give --png too".into());
+                }
+                if !(x.is_finite() && *x > 0.0) {
+                    return Err(format!("--exposure must be finite and > 0, not {x}"));
+                }
+            }
             let scene = load_scene(path, cli.patch_size).map_err(|e| e.to_string())?;
             let text = std::fs::read_to_string(solution)
                 .map_err(|e| format!("cannot read {}: {e}", solution.display()))?;
@@ -328,11 +350,6 @@ fn run(cli: &Cli) -> Result<(), String> {
             let img = render(&scene, &grid, &view, &b, &cfg).map_err(|e| e.to_string())?;
             write_exr(out, &img).map_err(|e| e.to_string())?;
             if let Some(p) = png {
-                if let Some(x) = exposure {
-                    if !(x.is_finite() && *x > 0.0) {
-                        return Err(format!("--exposure must be finite and > 0, not {x}"));
-                    }
-                }
                 let e = exposure.unwrap_or_else(|| auto_exposure(&img));
                 write_png(p, &img, e).map_err(|e| e.to_string())?;
             }

@@ -196,6 +196,10 @@ struct RingParams {
     inv_d_theta: f32,
     inv_d_phi: f32,
     shift: f32,
+    /// Whether the rough fast path may be used, and its margins in cells (θ, φ).
+    fast: bool,
+    margin_k: f32,
+    margin_l: f32,
 }
 
 /// Per-sector inputs of a ring's pass (motion-dependent, the same for every ring).
@@ -217,7 +221,8 @@ struct RingOut<'a> {
     /// cell for points within about 1e-5 rad of a cell edge (`NOWHERE` below the plane).
     rough: &'a mut [u32],
     /// Whether the rough cell is certainly the exact one: both angles lie over
-    /// `EDGE_MARGIN` of a cell from every edge (far more than the polynomial's error).
+    /// `EDGE_MARGIN` rad from every edge (ten times the polynomial's error); false at
+    /// resolutions finer than `FAST_PATH_MIN_CELL`.
     sure: &'a mut [bool],
     dist2: &'a mut [f32],
     q: [&'a mut [f32]; 3],
@@ -290,10 +295,11 @@ fn ring_pass_body(r: &[f32], t: &SectorTerms, p: &RingParams, out: RingOut) {
         rl += if rl < 0 { n as i32 } else { 0 };
         rl -= if rl >= n as i32 { n as i32 } else { 0 };
         let (fk, fl) = (th_c - rk as f32, x_c - (x_c as i32) as f32);
-        sure[j] = (fk > EDGE_MARGIN)
-            & (fk < 1.0 - EDGE_MARGIN)
-            & (fl > EDGE_MARGIN)
-            & (fl < 1.0 - EDGE_MARGIN)
+        sure[j] = p.fast
+            & (fk > p.margin_k)
+            & (fk < 1.0 - p.margin_k)
+            & (fl > p.margin_l)
+            & (fl < 1.0 - p.margin_l)
             & (th < ntf - 1.0);
         rough[j] = if q2 > 0.0 {
             (rk as u32).wrapping_mul(n as u32).wrapping_add(rl as u32)
@@ -471,6 +477,9 @@ pub(crate) fn splat(
             inv_d_theta: trig.inv_d_theta,
             inv_d_phi: trig.inv_d_phi,
             shift: trig.shift,
+            fast: hemi.d_theta().min(hemi.d_phi()) >= FAST_PATH_MIN_CELL,
+            margin_k: EDGE_MARGIN * trig.inv_d_theta,
+            margin_l: EDGE_MARGIN * trig.inv_d_phi,
         };
         ring_pass(
             avx2,
@@ -535,9 +544,13 @@ pub(crate) fn splat(
 
 /// No destination: the point left the hemisphere.
 const NOWHERE: u32 = u32::MAX;
-/// Distance from a cell edge, in cells, beyond which a rough cell is exact: 0.01 cell is
-/// 8.7e-5 rad at 180 × 720, against the polynomial angles' 1e-5 rad.
-const EDGE_MARGIN: f32 = 0.01;
+/// Distance from a cell edge, in radians, beyond which a rough cell is exact: ten times
+/// the polynomial angles' error (1e-5 rad).
+const EDGE_MARGIN: f32 = 1e-4;
+/// The rough fast path is used only where cells span at least this many radians both
+/// ways (up to about 785 × 3,141 cells): it is tested there, and the f32 cos² edges of
+/// the corrected path stay far more precise than the margin.
+const FAST_PATH_MIN_CELL: f64 = 2e-3;
 /// Destination to be found by the exact path.
 const EXACT_PATH: u32 = u32::MAX - 1;
 

@@ -86,7 +86,11 @@ pub fn solve(ff: &FormFactors, surfaces: &Surfaces, opts: &SolveOptions) -> Resu
     };
     let solve_seconds = t.elapsed().as_secs_f64();
     let balance = energy_balance(m, surfaces, &solution.radiosity);
-    let raw_balance = energy_balance(ff, surfaces, &solution.radiosity);
+    let raw_balance = if matrix.is_some() {
+        energy_balance(ff, surfaces, &solution.radiosity)
+    } else {
+        balance
+    };
     Ok(Solved {
         solution,
         reciprocity,

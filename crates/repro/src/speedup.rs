@@ -495,7 +495,6 @@ fn scene_solves_with_b(
     if s.emission.iter().all(|e| e.iter().all(|c| *c == 0.0)) {
         // The cube has no light: the four ceiling patches around its centre emit 1.
         let ceiling = 1;
-        let first = scene.polygons()[ceiling].first_patch() as usize;
         let (nu, _) = scene.polygons()[ceiling].grid();
         let mid = nu as usize / 2;
         for (i, j) in [
@@ -504,7 +503,8 @@ fn scene_solves_with_b(
             (mid - 1, mid),
             (mid, mid),
         ] {
-            s.emission[first + j * nu as usize + i] = [1.0; 3];
+            s.emission[scene.polygons()[ceiling].cell_patch(i as u32, j as u32) as usize] =
+                [1.0; 3];
         }
     }
     let opts = |solver| SolveOptions {

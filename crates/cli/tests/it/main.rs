@@ -330,5 +330,36 @@ fn solve_then_render_the_cornell_box() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    // Shooting on raw rows cannot converge: refused before any work.
+    let out = coherad(&[
+        "solve",
+        &s,
+        "--raw",
+        "--solver",
+        "progressive",
+        "--out",
+        other.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("--raw with --solver progressive"),
+        "{err}"
+    );
+    // An exposure needs a PNG, and is checked before rendering: no EXR is left.
+    let out = coherad(&[
+        "render",
+        &s,
+        "--solution",
+        sol.to_str().unwrap(),
+        "--out",
+        other.to_str().unwrap(),
+        "--exposure",
+        "2",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("give --png too"),
+        "{err}"
+    );
     assert!(!other.exists());
 }

@@ -132,6 +132,9 @@ fn the_avx2_ring_pass_gives_the_baseline_answers_bit_for_bit() {
             inv_d_theta: 180.0 / std::f32::consts::FRAC_PI_2,
             inv_d_phi: n as f32 / std::f32::consts::TAU,
             shift: 0.0,
+            fast: true,
+            margin_k: 0.0115,
+            margin_l: 0.0115,
         };
         let run = |avx2: bool| {
             let (mut dest, mut d2, mut rough) = (vec![0u32; n], vec![0f32; n], vec![0u32; n]);
@@ -213,6 +216,9 @@ fn rough_cells_are_exact_away_from_edges_and_at_most_one_off_near_them() {
             inv_d_theta: trig.inv_d_theta,
             inv_d_phi: trig.inv_d_phi,
             shift: trig.shift,
+            fast: true,
+            margin_k: super::EDGE_MARGIN * trig.inv_d_theta,
+            margin_l: super::EDGE_MARGIN * trig.inv_d_phi,
         };
         let (mut dest, mut d2, mut rough) = (vec![0u32; n], vec![0f32; n], vec![0u32; n]);
         let mut sure = vec![false; n];
