@@ -35,6 +35,31 @@ pub struct Camera {
     pub fov_y: f32,
 }
 
+impl Camera {
+    /// What makes this camera unusable, if anything: non-finite vectors, `up` parallel
+    /// to the view direction, or a field of view outside (0, π).
+    pub fn problem(&self) -> Option<String> {
+        let fin = self.position.is_finite() && self.look_at.is_finite() && self.up.is_finite();
+        let dir = self.look_at - self.position;
+        if !fin
+            || dir.length() == 0.0
+            || dir.cross(self.up).length() <= 1e-6 * dir.length() * self.up.length()
+        {
+            return Some(
+                "needs finite position, look_at and up, with up not parallel to the view direction"
+                    .into(),
+            );
+        }
+        if !(self.fov_y > 0.0 && self.fov_y < std::f32::consts::PI) {
+            return Some(format!(
+                "field of view {} rad is not in (0, pi)",
+                self.fov_y
+            ));
+        }
+        None
+    }
+}
+
 /// One polygon as described, before validation.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PolygonDesc {
@@ -96,22 +121,8 @@ impl Scene {
         if desc.polygons.is_empty() {
             return Err(Error::Empty);
         }
-        if let Some(c) = &desc.camera {
-            let fin = c.position.is_finite() && c.look_at.is_finite() && c.up.is_finite();
-            let dir = c.look_at - c.position;
-            if !fin
-                || dir.length() == 0.0
-                || dir.cross(c.up).length() <= 1e-6 * dir.length() * c.up.length()
-            {
-                return Err(Error::Camera {
-                    problem: "needs finite position, look_at and up, with up not parallel to the view direction".into(),
-                });
-            }
-            if !(c.fov_y > 0.0 && c.fov_y < std::f32::consts::PI) {
-                return Err(Error::Camera {
-                    problem: format!("field of view {} rad is not in (0, pi)", c.fov_y),
-                });
-            }
+        if let Some(problem) = desc.camera.as_ref().and_then(Camera::problem) {
+            return Err(Error::Camera { problem });
         }
         let mut polygons = Vec::with_capacity(desc.polygons.len());
         let mut patches: Vec<Patch> = Vec::new();

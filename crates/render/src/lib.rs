@@ -64,20 +64,8 @@ impl View {
         {
             return Err(Error::Size { width, height });
         }
-        let dir = c.look_at - c.position;
-        let fin = c.position.is_finite() && c.look_at.is_finite() && c.up.is_finite();
-        if !fin
-            || dir.length() == 0.0
-            || dir.cross(c.up).length() <= 1e-6 * dir.length() * c.up.length()
-        {
-            return Err(Error::Camera {
-                problem: "needs finite position, look_at and up, with up not parallel to the view direction".into(),
-            });
-        }
-        if !(c.fov_y > 0.0 && c.fov_y < std::f32::consts::PI) {
-            return Err(Error::Camera {
-                problem: format!("field of view {} rad is not in (0, pi)", c.fov_y),
-            });
+        if let Some(problem) = c.problem() {
+            return Err(Error::Camera { problem });
         }
         Ok(View {
             position: c.position,

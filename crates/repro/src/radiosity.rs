@@ -104,31 +104,7 @@ pub fn solve(ff: &FormFactors, surfaces: &Surfaces, opts: &SolveOptions) -> Resu
 /// `Σ_i Σ_j |a_ij − b_ij|` over rows `rows`, divided by their number: the mean L1
 /// distance of two matrices' rows.
 pub fn mean_row_l1(a: &FormFactors, b: &FormFactors, rows: &[PatchId]) -> f64 {
-    let mut total = 0.0;
-    for &i in rows {
-        let (ca, va) = a.row(i);
-        let (cb, vb) = b.row(i);
-        let (sa, sb) = (a.row_scale(i), b.row_scale(i));
-        let (mut x, mut y) = (0, 0);
-        while x < ca.len() || y < cb.len() {
-            let ja = ca.get(x).copied().unwrap_or(PatchId::MAX);
-            let jb = cb.get(y).copied().unwrap_or(PatchId::MAX);
-            let j = ja.min(jb);
-            let fa = if ja == j {
-                x += 1;
-                va[x - 1] as f64 * sa
-            } else {
-                0.0
-            };
-            let fb = if jb == j {
-                y += 1;
-                vb[y - 1] as f64 * sb
-            } else {
-                0.0
-            };
-            total += (fa - fb).abs();
-        }
-    }
+    let total: f64 = rows.iter().map(|&i| a.row_l1_distance(b, i)).sum();
     total / rows.len().max(1) as f64
 }
 

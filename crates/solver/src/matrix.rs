@@ -172,6 +172,36 @@ impl FormFactors {
         self.row(i).1.iter().map(|&v| v as f64).sum::<f64>() * self.row_scale[i as usize]
     }
 
+    /// `Σ_j |F_ij − G_ij|` of row `i` of two matrices of the same size.
+    ///
+    /// # Panics
+    /// If `i` is out of range of either.
+    pub fn row_l1_distance(&self, other: &FormFactors, i: PatchId) -> f64 {
+        let (ca, va) = self.row(i);
+        let (cb, vb) = other.row(i);
+        let (sa, sb) = (self.row_scale(i), other.row_scale(i));
+        let (mut x, mut y, mut total) = (0, 0, 0.0);
+        while x < ca.len() || y < cb.len() {
+            let ja = ca.get(x).copied().unwrap_or(PatchId::MAX);
+            let jb = cb.get(y).copied().unwrap_or(PatchId::MAX);
+            let j = ja.min(jb);
+            let fa = if ja == j {
+                x += 1;
+                va[x - 1] as f64 * sa
+            } else {
+                0.0
+            };
+            let fb = if jb == j {
+                y += 1;
+                vb[y - 1] as f64 * sb
+            } else {
+                0.0
+            };
+            total += (fa - fb).abs();
+        }
+        total
+    }
+
     /// `y = F x` for RGB vectors, rows in parallel (each row summed in order, so the
     /// result does not depend on the thread count).
     pub fn apply(&self, x: &[[f64; 3]]) -> Vec<[f64; 3]> {

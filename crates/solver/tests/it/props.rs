@@ -210,3 +210,29 @@ fn non_convergence_is_reported_not_raised() {
     let g = gauss_seidel(&ff, &s, &cfg).unwrap();
     assert!(!g.report.converged && g.report.iterations == 2 && g.report.residual > 1e-12);
 }
+
+#[test]
+fn row_l1_distance_merges_sparse_rows() {
+    let rows_a = [vec![(0u32, 0.25), (2, 0.5)], vec![(1, 0.125)], vec![]];
+    let rows_b = [
+        vec![(1u32, 0.25), (2, 0.25)],
+        vec![(1, 0.125)],
+        vec![(0, 0.5)],
+    ];
+    let m = |r: &[Vec<(u32, f64)>; 3]| {
+        FormFactors::from_rows(3, r.iter().enumerate().map(|(i, v)| (i as u32, &v[..]))).unwrap()
+    };
+    let (a, b) = (m(&rows_a), m(&rows_b));
+    assert_eq!(a.row_l1_distance(&b, 0), 0.25 + 0.25 + 0.25);
+    assert_eq!(a.row_l1_distance(&b, 1), 0.0);
+    assert_eq!(a.row_l1_distance(&b, 2), 0.5);
+    assert_eq!(b.row_l1_distance(&a, 2), 0.5);
+    // Against the reciprocal matrix, whose values carry a row scale.
+    let (ff, area) = crate::enclosure(12, 5, 0.4);
+    let (rec, report) = ff.reciprocal(&area, 1e-12, 1000).unwrap();
+    let mean: f64 = (0..12).map(|i| ff.row_l1_distance(&rec, i)).sum::<f64>() / 12.0;
+    assert!(
+        (mean - report.mean_row_l1_change).abs() < 1e-6,
+        "{mean} vs {report:?}"
+    );
+}
