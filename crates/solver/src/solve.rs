@@ -214,8 +214,9 @@ pub fn gauss_seidel(
 /// `A_i Σ_c ΔB_{i,c}` shoots, giving each `j` in its row `ρ_j F_ij ΔB_i A_i / A_j`
 /// (that is `ρ_j F_ji ΔB_i` by reciprocity: run it on [`FormFactors::reciprocal`]'s
 /// matrix; on rows that are not reciprocal it converges to a slightly different system
-/// and its residual levels off near their reciprocity error). Stops when the largest unshot radiosity is within tolerance of the largest
-/// radiosity and then the true residual is too.
+/// and its residual levels off near their reciprocity error). Stops when the largest
+/// unshot radiosity is within tolerance of the largest radiosity and then the true
+/// residual is too.
 pub fn progressive(
     ff: &FormFactors,
     surfaces: &Surfaces,
