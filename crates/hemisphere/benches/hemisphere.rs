@@ -1,12 +1,13 @@
-//! `hemisphere/exact/{cube,loft}/180x720/{grid,brute}`: one exact hemisphere on one
-//! thread, cycling over patches spread across the scene; throughput in rays.
+//! `hemisphere/exact/{cube,loft}/180x720/{grid,brute,scan}`: one exact hemisphere on
+//! one thread, cycling over patches spread across the scene (so each call is on another
+//! polygon than the last); throughput in rays (cells).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use rad_accel::{BruteForce, GridResolution, VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_geometry::scenes::{cube, loft};
 use rad_geometry::Scene;
-use rad_hemisphere::{Hemisphere, HemisphereConfig, ItemBuffer};
+use rad_hemisphere::{Hemisphere, HemisphereConfig, ItemBuffer, ScanScratch};
 use std::hint::black_box;
 
 /// The voxel grid of `rad_repro::default_grid` (rad-repro is not a dev-dependency here).
@@ -47,12 +48,32 @@ fn bench_caster<C: RayCast>(
     group.finish();
 }
 
+/// The polygon scan ([`Hemisphere::scan`]): the same item buffers as the grid's.
+fn bench_scan(c: &mut Criterion, id: &str, scene: &Scene, hemi: &Hemisphere) {
+    let patches = spread(scene, 64);
+    let mut group = c.benchmark_group("hemisphere/exact");
+    group.throughput(Throughput::Elements(hemi.n_cells() as u64));
+    group.sample_size(60);
+    let mut scratch = ScanScratch::default();
+    let mut buf = ItemBuffer::default();
+    let mut k = 0;
+    group.bench_function(BenchmarkId::from_parameter(id), |b| {
+        b.iter(|| {
+            k = (k + 1) % patches.len();
+            hemi.scan(scene, patches[k], &mut scratch, &mut buf);
+            black_box(&buf);
+        })
+    });
+    group.finish();
+}
+
 fn exact(c: &mut Criterion) {
     let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).expect("valid resolution");
     for (name, desc) in [("cube", cube(10)), ("loft", loft())] {
         let scene = Scene::new(desc).expect("bench scenes are valid");
         let grid = VoxelGrid::build(&scene, &GRID).expect("valid grid");
         bench_caster(c, &format!("{name}/180x720/grid"), &scene, &grid, &hemi, 60);
+        bench_scan(c, &format!("{name}/180x720/scan"), &scene, &hemi);
         bench_caster(
             c,
             &format!("{name}/180x720/brute"),

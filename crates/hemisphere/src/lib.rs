@@ -6,10 +6,12 @@
 mod cells;
 mod lambert;
 mod row;
+mod scan;
 
 pub use cells::{delta_form_factors, DeltaRule, Hemisphere, HemisphereConfig, MAX_CELLS};
 pub use lambert::point_to_polygon_form_factor;
 pub use row::{compute_rows, ItemBuffer, Row, RowAccumulator, BACK, ESCAPED};
+pub use scan::{ScanScratch, ScanStats};
 
 /// Errors from setting up a hemisphere.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -1,0 +1,608 @@
+//! Exact item buffers by scanning polygons over the hemisphere's cells instead of
+//! walking rays through a grid.
+//!
+//! Every ray of a hemisphere leaves the same point. So rather than take each ray and
+//! look for the polygon it meets first (ray-major, through a voxel grid), take each
+//! polygon, bound the cells whose rays can meet it (an angular box from its corners as
+//! seen from the origin, with margins for f32 rounding), and run the very ray–polygon
+//! test of [`rad_accel`'s grid](Hemisphere::cast) on those cells, keeping the nearest
+//! hit per cell (polygon-major, like a z-buffer, but with one exact ray per cell). This
+//! is the light buffer of Haines and Greenberg (1986) turned inside out.
+//!
+//! The result is the grid's, cell for cell and bit for bit: the same f32 arithmetic per
+//! (cell, polygon) pair, the same culling of polygons behind the patch's plane, and the
+//! same rule for ties (the lower polygon id wins). The bounds only decide which pairs
+//! are tested; they are conservative, and a polygon whose box could be unreliable (its
+//! plane passes within rounding of the origin) is tested on every cell.
+
+use crate::row::{BACK, ESCAPED};
+use crate::{Hemisphere, ItemBuffer};
+use glam::{DVec3, Vec3};
+use rad_core::{PatchId, PolygonId};
+use rad_geometry::{Polygon, Scene};
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+/// No polygon yet: the cell's ray has met nothing.
+const NONE: u32 = u32::MAX;
+
+/// Per-thread working memory of [`Hemisphere::scan`]: world directions for the frame
+/// last used, and the per-cell nearest hit.
+#[derive(Clone, Debug, Default)]
+pub struct ScanScratch {
+    /// Polygon whose frame `dx, dy, dz` are for, and the hemisphere they were made with.
+    dirs_for: Option<(PolygonId, usize, usize, u64)>,
+    dx: Vec<f32>,
+    dy: Vec<f32>,
+    dz: Vec<f32>,
+    /// Local directions, by component (for the hemisphere in `dirs_for`).
+    lx: Vec<f32>,
+    ly: Vec<f32>,
+    lz: Vec<f32>,
+    /// Every direction leaves the polygon's plane forwards (as the grid checks it).
+    forward: bool,
+    /// Cells of a span that passed the vectorised part of a test (for the scalar rest).
+    mask: Vec<u8>,
+    /// Per polygon: its hits are front hits (its plane term is negative).
+    front: Vec<bool>,
+    best_t: Vec<f32>,
+    best_p: Vec<u32>,
+    best_u: Vec<f32>,
+    best_v: Vec<f32>,
+    /// (cell, polygon) tests so far, and polygons tested on every cell.
+    pub stats: ScanStats,
+}
+
+/// Work counts of [`Hemisphere::scan`], summed over calls.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ScanStats {
+    pub hemispheres: u64,
+    /// (cell, polygon) pairs tested.
+    pub tests: u64,
+    /// Polygons tested on every cell (no reliable angular box).
+    pub full: u64,
+}
+
+/// The polygon's terms for one origin, as the grid computes them.
+struct Terms {
+    id: u32,
+    num: f32,
+    u0: f32,
+    v0: f32,
+    n: Vec3,
+    du: Vec3,
+    dv: Vec3,
+    bounds: [f32; 4],
+}
+
+/// Cells whose ray may meet a polygon.
+#[derive(Debug, PartialEq)]
+enum Region {
+    None,
+    All,
+    /// θ in [lo, hi]; φ in [lo, hi] (unwrapped, may leave [0, 2π)) or every φ.
+    Box {
+        theta: (f64, f64),
+        phi: Option<(f64, f64)>,
+    },
+}
+
+impl Hemisphere {
+    /// The item buffer of `patch`, exactly as [`Hemisphere::cast`] through a
+    /// [`rad_core::RayCast`] gives it (same patch, same distance, to the bit), computed
+    /// polygon by polygon (see the module documentation).
+    pub fn scan(
+        &self,
+        scene: &Scene,
+        patch: PatchId,
+        scratch: &mut ScanScratch,
+        buf: &mut ItemBuffer,
+    ) {
+        let p = &scene.patches()[patch as usize];
+        let own = p.polygon;
+        let polygons = scene.polygons();
+        let n_cells = self.n_cells();
+        self.prepare_dirs(&polygons[own as usize], own, scratch);
+        let s = scratch;
+        s.best_t.clear();
+        s.best_t.resize(n_cells, f32::INFINITY);
+        s.best_p.clear();
+        s.best_p.resize(n_cells, NONE);
+        s.best_u.resize(n_cells, 0.0);
+        s.best_v.resize(n_cells, 0.0);
+        s.stats.hemispheres += 1;
+        s.front.clear();
+        s.front.resize(polygons.len(), false);
+        let o = p.center;
+        let frame = polygons[own as usize].frame();
+        let own_n = polygons[own as usize].normal().as_dvec3();
+        let o64 = o.as_dvec3();
+        for (id, poly) in polygons.iter().enumerate() {
+            if id == own as usize {
+                continue;
+            }
+            // The grid's culling: wholly behind the plane by more than the polygon's reach.
+            if s.forward {
+                let reach = poly.reach() as f64;
+                if poly
+                    .vertices()
+                    .iter()
+                    .all(|v| (v.as_dvec3() - o64).dot(own_n) < -reach)
+                {
+                    continue;
+                }
+            }
+            let [num, u0, v0] = poly.origin_terms(o);
+            let (du, dv) = poly.dual_basis();
+            let terms = Terms {
+                id: id as u32,
+                num,
+                u0,
+                v0,
+                n: poly.normal(),
+                du,
+                dv,
+                bounds: poly.uv_bounds(),
+            };
+            // t = num / (n·d) > 0: front hits (n·d < 0) need num < 0, back hits num > 0,
+            // and num = 0 gives none.
+            if num == 0.0 || num.is_nan() {
+                continue;
+            }
+            s.front[id] = num < 0.0;
+            let region = region(
+                poly,
+                o64,
+                num,
+                [frame.t, frame.b, frame.n].map(Vec3::as_dvec3),
+            );
+            match region {
+                Region::None => {}
+                Region::All => {
+                    s.stats.full += 1;
+                    test_span(poly, &terms, s, 0, n_cells);
+                }
+                Region::Box { theta, phi } => {
+                    let (nt, np) = (self.n_theta(), self.n_phi());
+                    let (d_theta, d_phi) = (self.d_theta(), self.d_phi());
+                    let i0 = (theta.0 / d_theta).floor().max(0.0) as usize;
+                    let i1 = ((theta.1 / d_theta).floor().max(0.0) as usize).min(nt - 1);
+                    let spans = phi.and_then(|(lo, hi)| {
+                        let shift = self.config().phi_shift;
+                        let j0 = (lo / d_phi - shift - 0.5).floor() as i64;
+                        let j1 = (hi / d_phi - shift - 0.5).ceil() as i64;
+                        let count = j1 - j0 + 1;
+                        (count < np as i64).then(|| {
+                            let a = j0.rem_euclid(np as i64) as usize;
+                            let count = count as usize;
+                            if a + count <= np {
+                                [(a, a + count), (0, 0)]
+                            } else {
+                                [(a, np), (0, a + count - np)]
+                            }
+                        })
+                    });
+                    for i in i0..=i1 {
+                        let ring = i * np;
+                        match spans {
+                            None => test_span(poly, &terms, s, ring, ring + np),
+                            Some(spans) => {
+                                for (a, b) in spans {
+                                    if b > a {
+                                        test_span(poly, &terms, s, ring + a, ring + b);
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        buf.patch.clear();
+        buf.dist.clear();
+        buf.patch.reserve(n_cells);
+        buf.dist.reserve(n_cells);
+        // Runs of cells that met the same polygon share its lookups.
+        let mut k = 0;
+        while k < n_cells {
+            let bp = s.best_p[k];
+            let mut end = k + 1;
+            while end < n_cells && s.best_p[end] == bp {
+                end += 1;
+            }
+            if bp == NONE {
+                buf.patch.extend(std::iter::repeat_n(ESCAPED, end - k));
+                buf.dist.extend(std::iter::repeat_n(f32::INFINITY, end - k));
+            } else if s.front[bp as usize] {
+                let poly = &polygons[bp as usize];
+                buf.patch
+                    .extend((k..end).map(|c| poly.patch_at(s.best_u[c], s.best_v[c])));
+                buf.dist.extend_from_slice(&s.best_t[k..end]);
+            } else {
+                buf.patch.extend(std::iter::repeat_n(BACK, end - k));
+                buf.dist.extend_from_slice(&s.best_t[k..end]);
+            }
+            k = end;
+        }
+    }
+
+    /// World directions of the cells for `poly`'s frame, unless already there.
+    fn prepare_dirs(&self, poly: &Polygon, id: PolygonId, s: &mut ScanScratch) {
+        let key = (
+            id,
+            self.n_theta(),
+            self.n_phi(),
+            self.config().phi_shift.to_bits(),
+        );
+        if s.dirs_for == Some(key) {
+            return;
+        }
+        if s.dirs_for.map(|k| (k.1, k.2, k.3)) != Some((key.1, key.2, key.3)) {
+            s.lx = self.directions().iter().map(|d| d.x).collect();
+            s.ly = self.directions().iter().map(|d| d.y).collect();
+            s.lz = self.directions().iter().map(|d| d.z).collect();
+        }
+        let n_cells = self.n_cells();
+        for v in [&mut s.dx, &mut s.dy, &mut s.dz] {
+            v.resize(n_cells, 0.0);
+        }
+        #[cfg(target_arch = "x86_64")]
+        if rad_core::has_avx2() {
+            // SAFETY: the CPU has AVX2.
+            s.forward = unsafe { world_dirs_avx2(poly, s) };
+            s.dirs_for = Some(key);
+            return;
+        }
+        s.forward = world_dirs(poly, s);
+        s.dirs_for = Some(key);
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn world_dirs_avx2(poly: &Polygon, s: &mut ScanScratch) -> bool {
+    world_dirs(poly, s)
+}
+
+/// `Frame::world_from_local` of every cell's direction, component by component (the
+/// same sums in the same order, so the same bits); true if all leave the plane forwards.
+#[inline(always)]
+fn world_dirs(poly: &Polygon, s: &mut ScanScratch) -> bool {
+    let f = poly.frame();
+    let n = poly.normal();
+    let len = s.lx.len();
+    let (lx, ly, lz) = (&s.lx[..len], &s.ly[..len], &s.lz[..len]);
+    let (dx, dy, dz) = (&mut s.dx[..len], &mut s.dy[..len], &mut s.dz[..len]);
+    let mut forward = true;
+    for k in 0..len {
+        let (x, y, z) = (lx[k], ly[k], lz[k]);
+        let w = Vec3::new(
+            f.t.x * x + f.b.x * y + f.n.x * z,
+            f.t.y * x + f.b.y * y + f.n.y * z,
+            f.t.z * x + f.b.z * y + f.n.z * z,
+        );
+        dx[k] = w.x;
+        dy[k] = w.y;
+        dz[k] = w.z;
+        forward &= (w.x * n.x + w.y * n.y) + w.z * n.z > 0.0;
+    }
+    forward
+}
+
+/// Tests cells `a..b` against one polygon, keeping the nearer hit (ties keep the earlier,
+/// lower polygon id).
+fn test_span(poly: &Polygon, h: &Terms, s: &mut ScanScratch, a: usize, b: usize) {
+    s.stats.tests += (b - a) as u64;
+    // A front-facing parallelogram is inside its (u, v) bounds alone: every lane runs
+    // the same code and writes its hit. Other polygons take the bounds as a first cut,
+    // then their own inside test cell by cell.
+    let simple = h.num < 0.0 && poly.is_parallelogram();
+    let (dx, dy, dz) = (&s.dx[a..b], &s.dy[a..b], &s.dz[a..b]);
+    let (bt, bp) = (&mut s.best_t[a..b], &mut s.best_p[a..b]);
+    let (bu, bv) = (&mut s.best_u[a..b], &mut s.best_v[a..b]);
+    s.mask.resize(b - a, 0);
+    let mask = &mut s.mask[..b - a];
+    #[cfg(target_arch = "x86_64")]
+    if rad_core::has_avx2() {
+        // SAFETY: the CPU has AVX2.
+        unsafe { span_avx2(h, simple, dx, dy, dz, bt, bp, bu, bv, mask) };
+    } else if simple {
+        span::<true>(h, dx, dy, dz, bt, bp, bu, bv, mask);
+    } else {
+        span::<false>(h, dx, dy, dz, bt, bp, bu, bv, mask);
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    if simple {
+        span::<true>(h, dx, dy, dz, bt, bp, bu, bv, mask);
+    } else {
+        span::<false>(h, dx, dy, dz, bt, bp, bu, bv, mask);
+    }
+    if simple || !mask.contains(&1) {
+        return;
+    }
+    for k in 0..mask.len() {
+        if mask[k] == 0 {
+            continue;
+        }
+        let d = Vec3::new(dx[k], dy[k], dz[k]);
+        let denom = h.n.dot(d);
+        let t = h.num / denom;
+        let u = h.u0 + t * h.du.dot(d);
+        let v = h.v0 + t * h.dv.dot(d);
+        let inside = if denom < 0.0 {
+            poly.contains_uv(u, v)
+        } else {
+            poly.contains_uv_back(u, v)
+        };
+        if inside {
+            (bt[k], bp[k], bu[k], bv[k]) = (t, h.id, u, v);
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn span_avx2(
+    h: &Terms,
+    simple: bool,
+    dx: &[f32],
+    dy: &[f32],
+    dz: &[f32],
+    bt: &mut [f32],
+    bp: &mut [u32],
+    bu: &mut [f32],
+    bv: &mut [f32],
+    mask: &mut [u8],
+) {
+    if simple {
+        span::<true>(h, dx, dy, dz, bt, bp, bu, bv, mask)
+    } else {
+        span::<false>(h, dx, dy, dz, bt, bp, bu, bv, mask)
+    }
+}
+
+/// The grid's ray–polygon test on a span of cells, branch-free (vectorised): with
+/// `simple`, hits are written; otherwise `mask` marks the cells that pass the (u, v)
+/// bounds and are nearer than the best so far.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn span<const SIMPLE: bool>(
+    h: &Terms,
+    dx: &[f32],
+    dy: &[f32],
+    dz: &[f32],
+    bt: &mut [f32],
+    bp: &mut [u32],
+    bu: &mut [f32],
+    bv: &mut [f32],
+    mask: &mut [u8],
+) {
+    let n = dx.len();
+    let (dy, dz, bt, bp, bu, bv, mask) = (
+        &dy[..n],
+        &dz[..n],
+        &mut bt[..n],
+        &mut bp[..n],
+        &mut bu[..n],
+        &mut bv[..n],
+        &mut mask[..n],
+    );
+    let [u_lo, u_hi, v_lo, v_hi] = h.bounds;
+    for k in 0..n {
+        let (x, y, z) = (dx[k], dy[k], dz[k]);
+        // glam's dot, term by term, so that the bits are the grid's.
+        let denom = (h.n.x * x + h.n.y * y) + h.n.z * z;
+        let t = h.num / denom;
+        let u = h.u0 + t * ((h.du.x * x + h.du.y * y) + h.du.z * z);
+        let v = h.v0 + t * ((h.dv.x * x + h.dv.y * y) + h.dv.z * z);
+        let hit = (t > 0.0) & (t < bt[k]) & (u >= u_lo) & (u <= u_hi) & (v >= v_lo) & (v <= v_hi);
+        if SIMPLE {
+            bt[k] = if hit { t } else { bt[k] };
+            bp[k] = if hit { h.id } else { bp[k] };
+            bu[k] = if hit { u } else { bu[k] };
+            bv[k] = if hit { v } else { bv[k] };
+        } else {
+            mask[k] = hit as u8;
+        }
+    }
+}
+
+/// The cells whose rays from `o` may meet `poly`, in the local frame `[t, b, n]` of the
+/// patch; `num` is the grid's f32 plane term (`d − n·o`).
+fn region(poly: &Polygon, o: DVec3, num: f32, frame: [DVec3; 3]) -> Region {
+    // Every hit the grid accepts has (u, v) in this box: the polygon's (u, v) bounds,
+    // grown past its edge tolerance (the tolerance reaches farthest at its sharpest
+    // corner, eps / sin(α/2)).
+    let (lo, hi) = padded_uv_box(poly);
+    let (origin, eu, ev) = (
+        poly.origin().as_dvec3(),
+        poly.e_u().as_dvec3(),
+        poly.e_v().as_dvec3(),
+    );
+    let corners = [
+        (lo[0], lo[1]),
+        (hi[0], lo[1]),
+        (hi[0], hi[1]),
+        (lo[0], hi[1]),
+    ]
+    .map(|(u, v)| {
+        let w = origin + eu * u + ev * v - o;
+        DVec3::new(frame[0].dot(w), frame[1].dot(w), frame[2].dot(w))
+    });
+    // f32 rounding of the grid's terms, as a distance: a few hundred ulps of the
+    // coordinates involved, hit distances included.
+    let scale = corners.iter().map(|c| c.length()).fold(0.0, f64::max)
+        + o.abs().max_element()
+        + origin.abs().max_element();
+    let slack = 1e-5 * scale;
+    // The plane passes within rounding of the origin: no box is reliable.
+    let plane = (num as f64)
+        .abs()
+        .min((poly.normal().as_dvec3().dot(o) - poly.plane_offset() as f64).abs());
+    if plane <= 100.0 * slack {
+        return Region::All;
+    }
+    // Angular margin: the rounding seen from the nearest the plane can be.
+    let margin = 1e-6 + 4.0 * slack / plane;
+    // Clip to z ≥ −slack (cells all have z > 0).
+    let clipped = clip_below(&corners, -slack);
+    if clipped.len() < 3 {
+        return if clipped.is_empty() {
+            Region::None
+        } else {
+            Region::All
+        };
+    }
+    let dirs: Vec<DVec3> = clipped.iter().map(|c| c.normalize_or_zero()).collect();
+    if dirs.contains(&DVec3::ZERO) {
+        return Region::All;
+    }
+    let theta_of = |d: DVec3| d.x.hypot(d.y).atan2(d.z);
+    let theta_hi = dirs.iter().map(|&d| theta_of(d)).fold(0.0, f64::max) + margin;
+    // Pole inside (or on an edge or vertex): winding of the φ angles.
+    let mut pole = dirs.iter().any(|d| d.x.hypot(d.y) < 1e-12);
+    let mut winding = 0.0;
+    let mut phi = Vec::with_capacity(dirs.len());
+    let phi0 = dirs[0].y.atan2(dirs[0].x);
+    let mut acc = phi0;
+    phi.push(acc);
+    for k in 0..dirs.len() {
+        let (a, b) = (dirs[k], dirs[(k + 1) % dirs.len()]);
+        let step = wrap(b.y.atan2(b.x) - a.y.atan2(a.x));
+        if step.abs() > PI - 1e-9 {
+            pole = true;
+        }
+        winding += step;
+        if k + 1 < dirs.len() {
+            acc += step;
+            phi.push(acc);
+        }
+    }
+    if pole || winding.abs() > PI {
+        return Region::Box {
+            theta: (0.0, theta_hi),
+            phi: None,
+        };
+    }
+    // θ is least at a vertex or where an edge's great circle comes nearest the pole.
+    let mut theta_lo = dirs
+        .iter()
+        .map(|&d| theta_of(d))
+        .fold(FRAC_PI_2 * 2.0, f64::min);
+    for k in 0..dirs.len() {
+        let (a, b) = (dirs[k], dirs[(k + 1) % dirs.len()]);
+        let m = a.cross(b);
+        let ml = m.length();
+        if ml < 1e-12 {
+            continue;
+        }
+        let m = m / ml;
+        let q = DVec3::Z - m * m.z;
+        let ql = q.length();
+        if ql < 1e-12 {
+            continue;
+        }
+        let q = q / ql;
+        if a.cross(q).dot(m) >= 0.0 && q.cross(b).dot(m) >= 0.0 {
+            theta_lo = theta_lo.min(theta_of(q));
+        }
+    }
+    let theta_lo = theta_lo - margin;
+    if theta_lo <= 0.0 {
+        return Region::Box {
+            theta: (0.0, theta_hi),
+            phi: None,
+        };
+    }
+    let phi_margin = {
+        let s = margin.sin() / theta_lo.min(FRAC_PI_2).sin();
+        if s >= 1.0 {
+            return Region::Box {
+                theta: (theta_lo, theta_hi),
+                phi: None,
+            };
+        }
+        s.asin() + 1e-9
+    };
+    let lo = phi.iter().copied().fold(f64::INFINITY, f64::min) - phi_margin;
+    let hi = phi.iter().copied().fold(f64::NEG_INFINITY, f64::max) + phi_margin;
+    Region::Box {
+        theta: (theta_lo, theta_hi),
+        phi: (hi - lo < TAU).then_some((lo, hi)),
+    }
+}
+
+/// `x` wrapped into (−π, π].
+fn wrap(x: f64) -> f64 {
+    let y = x.rem_euclid(TAU);
+    if y > PI {
+        y - TAU
+    } else {
+        y
+    }
+}
+
+/// The polygon's (u, v) bounding box, grown past everything its inside tests accept.
+fn padded_uv_box(poly: &Polygon) -> ([f64; 2], [f64; 2]) {
+    let uv = poly.uv_vertices();
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for p in uv {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    // World distance the inside tests reach past an edge, at the sharpest corner.
+    let world: Vec<DVec3> = uv
+        .iter()
+        .map(|p| poly.point(p[0] as f32, p[1] as f32).as_dvec3())
+        .collect();
+    let n = world.len();
+    let mut min_sin_half = 1.0f64;
+    for k in 0..n {
+        let (a, b, c) = (world[(k + n - 1) % n], world[k], world[(k + 1) % n]);
+        let (e0, e1) = ((a - b).normalize_or_zero(), (c - b).normalize_or_zero());
+        let angle = e0.dot(e1).clamp(-1.0, 1.0).acos();
+        min_sin_half = min_sin_half.min((0.5 * angle).sin());
+    }
+    let reach = 2.0 * poly.reach() as f64 / min_sin_half.max(1e-6);
+    let (du, dv) = poly.dual_basis();
+    let pad = [
+        reach * du.as_dvec3().length(),
+        reach * dv.as_dvec3().length(),
+    ];
+    // The grid's own bounds for parallelograms, and a relative margin for rounding.
+    let b = poly.uv_bounds();
+    for k in 0..2 {
+        let extra = pad[k] + 1e-5 * (hi[k] - lo[k]).abs();
+        lo[k] = (lo[k] - extra).min(if b[2 * k].is_finite() {
+            b[2 * k] as f64
+        } else {
+            f64::INFINITY
+        });
+        hi[k] = (hi[k] + extra).max(if b[2 * k + 1].is_finite() {
+            b[2 * k + 1] as f64
+        } else {
+            f64::NEG_INFINITY
+        });
+    }
+    (lo, hi)
+}
+
+/// Sutherland–Hodgman clip of a convex polygon to `z ≥ z0`.
+fn clip_below(poly: &[DVec3], z0: f64) -> Vec<DVec3> {
+    let mut out = Vec::with_capacity(poly.len() + 2);
+    for k in 0..poly.len() {
+        let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+        let (ia, ib) = (a.z >= z0, b.z >= z0);
+        if ia {
+            out.push(a);
+        }
+        if ia != ib {
+            let s = (z0 - a.z) / (b.z - a.z);
+            out.push(a + (b - a) * s);
+        }
+    }
+    out
+}
