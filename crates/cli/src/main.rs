@@ -6,7 +6,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rad_accel::VoxelGrid;
 use rad_estimator::{estimate_rows, windows, Mode, Source};
 use rad_geometry::file::load_scene;
-use rad_hemisphere::{compute_rows, Hemisphere, HemisphereConfig, Row};
+use rad_hemisphere::{compute_rows, compute_rows_scan, Hemisphere, HemisphereConfig, Row};
 use rad_render::{render, RenderConfig, Shading, View};
 use rad_repro::images::{auto_exposure, write_exr, write_png};
 use rad_repro::output::{
@@ -62,6 +62,11 @@ enum Command {
         /// With --method estimated: the report's method (faithful) or visibility estimation (improved).
         #[arg(long, value_enum, default_value_t = EstimatorMode::Improved)]
         estimator: EstimatorMode,
+        /// How exact hemispheres are made: scan (each polygon tested on the cells it can
+        /// cover; fastest) or grid (each cell's ray through the voxel grid, the report's
+        /// way). Both give the same rows, to the bit.
+        #[arg(long, value_enum, default_value_t = Caster::Scan)]
+        caster: Caster,
         /// Write here instead of standard output (atomically: all or nothing).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -76,6 +81,11 @@ enum Command {
         method: Method,
         #[arg(long, value_enum, default_value_t = EstimatorMode::Improved)]
         estimator: EstimatorMode,
+        /// How exact hemispheres are made: scan (each polygon tested on the cells it can
+        /// cover; fastest) or grid (each cell's ray through the voxel grid, the report's
+        /// way). Both give the same rows, to the bit.
+        #[arg(long, value_enum, default_value_t = Caster::Scan)]
+        caster: Caster,
         /// gauss-seidel (gathering) or progressive (shooting by unshot power).
         #[arg(long, value_enum, default_value_t = SolverKind::GaussSeidel)]
         solver: SolverKind,
@@ -134,6 +144,12 @@ enum ShadingKind {
 enum Method {
     Exact,
     Estimated,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Caster {
+    Scan,
+    Grid,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -196,6 +212,7 @@ fn run(cli: &Cli) -> Result<(), String> {
             out,
             method,
             estimator,
+            caster,
         } => {
             let (nt, np) = parse_resolution(resolution).map_err(|e| e.to_string())?;
             let hemi =
@@ -204,7 +221,7 @@ fn run(cli: &Cli) -> Result<(), String> {
             let ids =
                 parse_patch_list(patches, scene.patches().len()).map_err(|e| e.to_string())?;
             let (rows, sources, method_name) =
-                form_factor_rows(&scene, &hemi, &ids, *method, *estimator)?;
+                form_factor_rows(&scene, &hemi, &ids, *method, *estimator, *caster)?;
             let leaked: Vec<u32> = rows
                 .iter()
                 .filter(|r| r.escaped > 0.0)
@@ -234,6 +251,7 @@ fn run(cli: &Cli) -> Result<(), String> {
             resolution,
             method,
             estimator,
+            caster,
             solver,
             tolerance,
             raw,
@@ -260,7 +278,7 @@ fn run(cli: &Cli) -> Result<(), String> {
             let all: Vec<u32> = (0..n as u32).collect();
             let t = std::time::Instant::now();
             let (rows, _, method_name) =
-                form_factor_rows(&scene, &hemi, &all, *method, *estimator)?;
+                form_factor_rows(&scene, &hemi, &all, *method, *estimator, *caster)?;
             let form_factors_seconds = t.elapsed().as_secs_f64();
             let ff = FormFactors::from_rows(n, rows.iter().map(|r| (r.patch, &r.entries[..])))
                 .map_err(|e| e.to_string())?;
@@ -361,13 +379,15 @@ fn run(cli: &Cli) -> Result<(), String> {
 type Rows = (Vec<Row>, Vec<Option<u32>>, &'static str);
 
 /// Rows of `ids` by `method`, with a progress bar on long jobs; sources are the patches
-/// estimated rows came from.
+/// estimated rows came from. Exact rows come from `caster`; estimated rows' window
+/// centres are always cast through the grid (the estimator reads its boundary lists).
 fn form_factor_rows(
     scene: &rad_geometry::Scene,
     hemi: &Hemisphere,
     ids: &[u32],
     method: Method,
     estimator: EstimatorMode,
+    caster: Caster,
 ) -> Result<Rows, String> {
     let (nt, np) = (hemi.n_theta(), hemi.n_phi());
     let grid = VoxelGrid::build(scene, &default_grid()).map_err(|e| e.to_string())?;
@@ -389,8 +409,12 @@ fn form_factor_rows(
         Method::Exact => {
             bar.set_message(format!("exact form factors {nt}x{np}"));
             bar.set_prefix("rows");
-            let rows = compute_rows(scene, &grid, hemi, ids, &|n| bar.set_position(n as u64))
-                .map_err(|e| e.to_string())?;
+            let progress = |n: usize| bar.set_position(n as u64);
+            let rows = match caster {
+                Caster::Scan => compute_rows_scan(scene, hemi, ids, &progress),
+                Caster::Grid => compute_rows(scene, &grid, hemi, ids, &progress),
+            }
+            .map_err(|e| e.to_string())?;
             let n = rows.len();
             (rows, vec![None; n], "exact")
         }

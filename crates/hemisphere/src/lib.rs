@@ -2,6 +2,9 @@
 //! exact-integral delta form factors, one ray per cell through any [`rad_core::RayCast`],
 //! an item buffer, and sparse rows accumulated in f64. All rows of a scene are computed
 //! in parallel, deterministically whatever the thread count.
+//!
+//! [`Hemisphere::scan`] makes the same item buffers, to the bit, polygon by polygon over
+//! the cells each can cover instead of ray by ray through a grid (module `scan`).
 
 mod cells;
 mod lambert;
@@ -10,7 +13,7 @@ mod scan;
 
 pub use cells::{delta_form_factors, DeltaRule, Hemisphere, HemisphereConfig, MAX_CELLS};
 pub use lambert::point_to_polygon_form_factor;
-pub use row::{compute_rows, ItemBuffer, Row, RowAccumulator, BACK, ESCAPED};
+pub use row::{compute_rows, compute_rows_scan, ItemBuffer, Row, RowAccumulator, BACK, ESCAPED};
 pub use scan::{ScanScratch, ScanStats};
 
 /// Errors from setting up a hemisphere.

@@ -1,6 +1,6 @@
 //! Item buffers (what each cell sees) and sparse form-factor rows.
 
-use crate::{Error, Hemisphere};
+use crate::{Error, Hemisphere, ScanScratch};
 use rad_core::{PatchId, RayCast};
 use rad_geometry::Scene;
 use rayon::prelude::*;
@@ -154,6 +154,43 @@ pub fn compute_rows<C: RayCast>(
     patches: &[PatchId],
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Vec<Row>, Error> {
+    rows_with(
+        scene,
+        hemisphere,
+        patches,
+        progress,
+        || caster.new_scratch(),
+        |scratch, p, buf| hemisphere.cast(scene, caster, p, scratch, buf),
+    )
+}
+
+/// [`compute_rows`] with item buffers from [`Hemisphere::scan`]: the same rows, to the
+/// bit, as through the voxel grid, in a fraction of the time.
+pub fn compute_rows_scan(
+    scene: &Scene,
+    hemisphere: &Hemisphere,
+    patches: &[PatchId],
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Vec<Row>, Error> {
+    rows_with(
+        scene,
+        hemisphere,
+        patches,
+        progress,
+        ScanScratch::default,
+        |scratch, p, buf| hemisphere.scan(scene, p, scratch, buf),
+    )
+}
+
+/// Rows in parallel, each from the item buffer `fill` makes with per-thread `S`.
+fn rows_with<S: Send>(
+    scene: &Scene,
+    hemisphere: &Hemisphere,
+    patches: &[PatchId],
+    progress: &(dyn Fn(usize) + Sync),
+    new_scratch: impl Fn() -> S + Sync + Send,
+    fill: impl Fn(&mut S, PatchId, &mut ItemBuffer) + Sync + Send,
+) -> Result<Vec<Row>, Error> {
     let n_patches = scene.patches().len();
     if let Some(&bad) = patches.iter().find(|&&p| p as usize >= n_patches) {
         return Err(Error::PatchOutOfRange {
@@ -167,13 +204,13 @@ pub fn compute_rows<C: RayCast>(
         .map_init(
             || {
                 (
-                    caster.new_scratch(),
+                    new_scratch(),
                     ItemBuffer::default(),
                     RowAccumulator::new(n_patches),
                 )
             },
             |(scratch, buf, acc), &p| {
-                hemisphere.cast(scene, caster, p, scratch, buf);
+                fill(scratch, p, buf);
                 let row = hemisphere.row_from_items(p, buf, acc);
                 progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
                 row

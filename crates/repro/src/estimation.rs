@@ -11,7 +11,7 @@ use rad_estimator::{
     ThresholdTest, Window,
 };
 use rad_geometry::Scene;
-use rad_hemisphere::{Hemisphere, HemisphereConfig, ItemBuffer, Row, RowAccumulator};
+use rad_hemisphere::{Hemisphere, HemisphereConfig, ItemBuffer, Row, RowAccumulator, ScanScratch};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
@@ -123,11 +123,15 @@ pub struct EstimationTiming {
     pub scene: String,
     pub resolution: [u32; 2],
     pub hemispheres: usize,
+    /// Exact: each cell's ray cast through the voxel grid (the report's way).
     pub median_ms_exact: f64,
     pub median_ms_faithful: f64,
     pub median_ms_improved: f64,
+    /// Estimate over exact (grid), per mode.
     pub ratio_faithful: f64,
     pub ratio_improved: f64,
+    /// The same exact item buffers by polygon scan ([`Hemisphere::scan`]).
+    pub median_ms_scan: f64,
     /// Real rays the improved mode cast, per estimated hemisphere.
     pub improved_real_rays_per_hemisphere: f64,
 }
@@ -154,13 +158,18 @@ pub fn timing(
     Ok(pool.install(|| {
         let mut s = grid.new_scratch();
         let mut buf = ItemBuffer::default();
+        let mut ss = ScanScratch::default();
         let (mut te, mut tf, mut ti, mut real) = (Vec::new(), Vec::new(), Vec::new(), 0usize);
+        let mut ts = Vec::new();
         for w in &picked {
             let src = SourceHemisphere::cast(scene, &grid, &hemi, w.centre, false, &mut s);
             for &p in &w.estimated {
                 let t = Instant::now();
                 hemi.cast(scene, &grid, p, &mut s, &mut buf);
                 te.push(t.elapsed().as_secs_f64());
+                let t = Instant::now();
+                hemi.scan(scene, p, &mut ss, &mut buf);
+                ts.push(t.elapsed().as_secs_f64());
                 let t = Instant::now();
                 std::hint::black_box(est.faithful(scene, &src, p, &faithful));
                 tf.push(t.elapsed().as_secs_f64());
@@ -185,6 +194,7 @@ pub fn timing(
             median_ms_improved: 1e3 * i,
             ratio_faithful: f / e,
             ratio_improved: i / e,
+            median_ms_scan: 1e3 * Summary::of(&ts).median,
             improved_real_rays_per_hemisphere: real as f64 / ti.len().max(1) as f64,
         }
     }))

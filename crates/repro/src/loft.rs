@@ -1,5 +1,5 @@
 //! Checks on our loft: counts, closure, reciprocity, and the exact hemisphere's speed
-//! (voxel grid against brute force, one thread).
+//! (voxel grid against brute force, and the polygon scan, one thread).
 
 use crate::reciprocity::{pairs, point_asymmetry, summarise, Reciprocity};
 use crate::stats::Summary;
@@ -8,7 +8,9 @@ use rad_accel::{BruteForce, VoxelGrid};
 use rad_core::RayCast;
 use rad_geometry::scenes::loft;
 use rad_geometry::Scene;
-use rad_hemisphere::{compute_rows, Hemisphere, HemisphereConfig, ItemBuffer};
+use rad_hemisphere::{
+    compute_rows, compute_rows_scan, Hemisphere, HemisphereConfig, ItemBuffer, ScanScratch,
+};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -48,27 +50,55 @@ pub struct LoftChecks {
     pub row_sum: Summary,
     pub reciprocity: Reciprocity,
     pub timing: Vec<Timing>,
+    /// The scan's item buffers equal the grid's, cell for cell and bit for bit, on
+    /// every hemisphere timed with the grid.
+    pub scan_identical_to_grid: bool,
+    /// (cell, polygon) tests per cell of the scan, over those hemispheres.
+    pub scan_tests_per_cell: f64,
 }
 
-/// Median time of casting one hemisphere from each of `patches`, one thread.
-fn time_hemispheres<C: RayCast>(
+/// Median time of `fill` on each of `patches`, and the buffers it made.
+fn time_hemispheres(
+    patches: &[u32],
+    mut fill: impl FnMut(u32, &mut ItemBuffer),
+) -> (f64, Vec<ItemBuffer>) {
+    let mut bufs = Vec::with_capacity(patches.len());
+    let mut times: Vec<f64> = patches
+        .iter()
+        .map(|&p| {
+            let mut buf = ItemBuffer::default();
+            let t = Instant::now();
+            fill(p, &mut buf);
+            let dt = t.elapsed().as_secs_f64();
+            bufs.push(buf);
+            dt
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    (times[times.len() / 2], bufs)
+}
+
+/// Median time of casting one hemisphere from each of `patches` through `caster`.
+fn time_casts<C: RayCast>(
     scene: &Scene,
     caster: &C,
     hemi: &Hemisphere,
     patches: &[u32],
-) -> f64 {
+) -> (f64, Vec<ItemBuffer>) {
     let mut scratch = caster.new_scratch();
-    let mut buf = ItemBuffer::default();
-    let mut times: Vec<f64> = patches
-        .iter()
-        .map(|&p| {
-            let t = Instant::now();
-            hemi.cast(scene, caster, p, &mut scratch, &mut buf);
-            t.elapsed().as_secs_f64()
-        })
-        .collect();
-    times.sort_by(f64::total_cmp);
-    times[times.len() / 2]
+    time_hemispheres(patches, |p, buf| {
+        hemi.cast(scene, caster, p, &mut scratch, buf)
+    })
+}
+
+/// Same bits in every cell (distances compared as bits: ∞ = ∞, and −0 ≠ 0).
+fn same_items(a: &ItemBuffer, b: &ItemBuffer) -> bool {
+    a.patch == b.patch
+        && a.dist.len() == b.dist.len()
+        && a.dist
+            .iter()
+            .zip(&b.dist)
+            .all(|(x, y)| x.to_bits() == y.to_bits())
 }
 
 pub fn loft_checks(
@@ -94,7 +124,8 @@ pub fn loft_checks(
         .step_by(config.reciprocity_stride)
         .map(|p| p as u32)
         .collect();
-    let rows = compute_rows(&scene, &grid, &hemi, &subset, &|_| {})?;
+    // (by scan: the grid's rows to the bit, faster)
+    let rows = compute_rows_scan(&scene, &hemi, &subset, &|_| {})?;
     let reciprocity = summarise(
         &pairs(&scene, &rows, hemi.n_cells()),
         rows.len(),
@@ -114,15 +145,24 @@ pub fn loft_checks(
         median_mrays_per_second: rays as f64 / secs / 1e6,
     };
     let pool = crate::one_thread()?;
-    let (t_grid, t_brute) = pool.install(|| {
-        let g = time_hemispheres(&scene, &grid, &hemi, &spread(config.timed_grid));
-        let b = time_hemispheres(
+    let timed = spread(config.timed_grid);
+    let (t_grid, t_brute, t_scan, identical, tests) = pool.install(|| {
+        let (g, grid_bufs) = time_casts(&scene, &grid, &hemi, &timed);
+        let b = time_casts(
             &scene,
             &BruteForce::new(&scene),
             &hemi,
             &spread(config.timed_brute),
-        );
-        (g, b)
+        )
+        .0;
+        let mut ss = ScanScratch::default();
+        let (s, scan_bufs) = time_hemispheres(&timed, |p, buf| hemi.scan(&scene, p, &mut ss, buf));
+        let identical = grid_bufs
+            .iter()
+            .zip(&scan_bufs)
+            .all(|(a, b)| same_items(a, b));
+        let tests = ss.stats.tests as f64 / (ss.stats.hemispheres as f64 * rays as f64);
+        (g, b, s, identical, tests)
     });
     progress(3, 3);
     Ok(LoftChecks {
@@ -138,6 +178,9 @@ pub fn loft_checks(
         timing: vec![
             timing_of("voxel grid, 1 thread", config.timed_grid, t_grid),
             timing_of("brute force, 1 thread", config.timed_brute, t_brute),
+            timing_of("polygon scan, 1 thread", config.timed_grid, t_scan),
         ],
+        scan_identical_to_grid: identical,
+        scan_tests_per_cell: tests,
     })
 }

@@ -9,7 +9,7 @@ use rad_core::PatchId;
 use rad_estimator::{estimate_rows, windows, EstimateStats, Mode};
 use rad_geometry::scenes::{cornell_box, cube, loft, CORNELL_PATCH_MM};
 use rad_geometry::Scene;
-use rad_hemisphere::{compute_rows, Hemisphere, HemisphereConfig, Row};
+use rad_hemisphere::{compute_rows, compute_rows_scan, Hemisphere, HemisphereConfig, Row};
 use rad_render::{relative_difference, render, DiffStats, Image, RenderConfig, Shading, View};
 use rad_solver::{FormFactors, SolveConfig, Solver};
 use serde::Serialize;
@@ -69,8 +69,12 @@ pub struct MethodRun {
     pub seconds: f64,
     /// `seconds / hemispheres`.
     pub ms_per_hemisphere: f64,
-    /// Exact time over this method's time, same run.
+    /// Exact (grid) time over this method's time, same run.
     pub speedup_vs_exact: f64,
+    /// Exact (scan) time over this method's time, same run.
+    pub speedup_vs_scan: Option<f64>,
+    /// The scan's run: its rows equal the grid's, bit for bit (compared by hash).
+    pub identical_to_exact: Option<bool>,
     pub exact_hemispheres: usize,
     pub estimated_hemispheres: usize,
     pub fallback_exact: usize,
@@ -198,26 +202,71 @@ fn rows_to_matrix(n: usize, rows: &[Row]) -> Result<FormFactors, Error> {
     )?)
 }
 
-/// Rows of `patches` by one method, timed: exact (None) or estimated in `mode`.
+/// A way of computing rows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Way {
+    /// Every hemisphere ray cast through the voxel grid (the report's "without
+    /// estimation").
+    Grid,
+    /// The same exact item buffers by polygon scan.
+    Scan,
+    /// The 3 x 3 schedule with an estimator mode.
+    Estimated(Mode),
+}
+
+impl Way {
+    const ALL: [Way; 4] = [
+        Way::Grid,
+        Way::Scan,
+        Way::Estimated(Mode::Faithful),
+        Way::Estimated(Mode::Improved),
+    ];
+
+    fn name(self) -> String {
+        match self {
+            Way::Grid => "exact".into(),
+            Way::Scan => "exact (scan)".into(),
+            Way::Estimated(m) => format!("estimated ({})", mode_name(m)),
+        }
+    }
+}
+
+/// A hash of a row's every bit, to compare two runs' rows without keeping both.
+fn row_hash(r: &Row) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    r.patch.hash(&mut h);
+    for (j, f) in &r.entries {
+        (j, f.to_bits()).hash(&mut h);
+    }
+    (r.back.to_bits(), r.escaped.to_bits()).hash(&mut h);
+    h.finish()
+}
+
+/// Rows of `patches` by one way, timed.
 fn run_method(
     scene: &Scene,
     grid: &VoxelGrid,
     hemi: &Hemisphere,
-    mode: Option<Mode>,
+    way: Way,
     patches: &[PatchId],
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<(Vec<Row>, MethodRun), Error> {
     let t = Instant::now();
-    let (rows, stats) = match mode {
-        None => {
-            let rows = compute_rows(scene, grid, hemi, patches, progress)?;
+    let (rows, stats) = match way {
+        Way::Grid | Way::Scan => {
+            let rows = if way == Way::Grid {
+                compute_rows(scene, grid, hemi, patches, progress)?
+            } else {
+                compute_rows_scan(scene, hemi, patches, progress)?
+            };
             let stats = EstimateStats {
                 exact: rows.len(),
                 ..EstimateStats::default()
             };
             (rows, stats)
         }
-        Some(m) => {
+        Way::Estimated(m) => {
             let (rows, stats) =
                 estimate_rows(scene, grid, hemi, &default_estimator(m), patches, progress)?;
             (rows.into_iter().map(|r| r.row).collect(), stats)
@@ -225,21 +274,20 @@ fn run_method(
     };
     let seconds = t.elapsed().as_secs_f64();
     let per = |s: f64, n: usize| if n > 0 { 1e3 * s / n as f64 } else { 0.0 };
-    let exact_ms = if mode.is_none() {
+    let exact_ms = match way {
         // Thread-time of an exact hemisphere: wall time times threads over count.
-        per(seconds * rayon::current_num_threads() as f64, stats.exact)
-    } else {
-        per(stats.exact_seconds, stats.exact)
+        Way::Grid | Way::Scan => per(seconds * rayon::current_num_threads() as f64, stats.exact),
+        Way::Estimated(_) => per(stats.exact_seconds, stats.exact),
     };
     let estimated = stats.estimated + stats.fallback_exact;
     let run = MethodRun {
-        method: mode.map_or("exact".to_string(), |m| {
-            format!("estimated ({})", mode_name(m))
-        }),
+        method: way.name(),
         hemispheres: rows.len(),
         seconds,
         ms_per_hemisphere: per(seconds, rows.len()),
         speedup_vs_exact: 1.0,
+        speedup_vs_scan: None,
+        identical_to_exact: None,
         exact_hemispheres: stats.exact,
         estimated_hemispheres: stats.estimated,
         fallback_exact: stats.fallback_exact,
@@ -256,9 +304,9 @@ fn run_method(
     Ok((rows, run))
 }
 
-/// Runs the three methods on `patches`, in this order, in this process; the exact
-/// rows' matrix comes back for comparisons.
-fn three_methods(
+/// Runs every [`Way`] on `patches`, in this order, in this process; the matrices of
+/// the exact (grid) rows and of each estimator mode's come back (on all patches).
+fn all_methods(
     scene: &Scene,
     grid: &VoxelGrid,
     hemi: &Hemisphere,
@@ -266,30 +314,42 @@ fn three_methods(
     estimated_ids: &[PatchId],
     stage: &str,
     progress: &(dyn Fn(&str, usize, usize) + Sync),
-) -> Result<(Vec<MethodRun>, Vec<FormFactors>), Error> {
+) -> Result<(Vec<MethodRun>, Vec<(Way, FormFactors)>), Error> {
     let n = scene.patches().len();
     let full = patches.len() == n;
-    let mut runs = Vec::new();
+    let mut runs: Vec<MethodRun> = Vec::new();
     let mut matrices = Vec::new();
-    for mode in [None, Some(Mode::Faithful), Some(Mode::Improved)] {
-        let name = mode.map_or("exact", mode_name);
-        let label = format!("{stage}, {name}");
+    let mut exact_hashes = Vec::new();
+    for way in Way::ALL {
+        let label = format!("{stage}, {}", way.name());
         let total = patches.len();
-        let (rows, mut run) = run_method(scene, grid, hemi, mode, patches, &|k| {
+        let (rows, mut run) = run_method(scene, grid, hemi, way, patches, &|k| {
             if k % 500 == 0 || k == total {
                 progress(&label, k, total)
             }
         })?;
-        if let Some(exact) = runs.first().map(|r: &MethodRun| r.seconds) {
-            run.speedup_vs_exact = exact / run.seconds;
+        if let Some(exact) = runs.first() {
+            run.speedup_vs_exact = exact.seconds / run.seconds;
         }
-        if full {
+        if let Some(scan) = runs.get(1) {
+            run.speedup_vs_scan = Some(scan.seconds / run.seconds);
+        }
+        match way {
+            Way::Grid => exact_hashes = rows.iter().map(row_hash).collect(),
+            Way::Scan => {
+                run.identical_to_exact =
+                    Some(rows.iter().map(row_hash).eq(exact_hashes.iter().copied()));
+                run.speedup_vs_scan = Some(1.0);
+            }
+            Way::Estimated(_) => {}
+        }
+        if full && way != Way::Scan {
             let m = rows_to_matrix(n, &rows)?;
             drop(rows);
-            if let Some(exact) = matrices.first() {
+            if let Some((_, exact)) = matrices.first() {
                 run.mean_row_l1_vs_exact = Some(mean_row_l1(exact, &m, estimated_ids));
             }
-            matrices.push(m);
+            matrices.push((way, m));
         }
         runs.push(run);
     }
@@ -314,7 +374,7 @@ pub fn run(
         .flat_map(|w| w.estimated.iter().copied())
         .collect();
 
-    let (runs_all, matrices) = three_methods(
+    let (runs_all, matrices) = all_methods(
         &scene,
         &grid,
         &hemi,
@@ -333,7 +393,7 @@ pub fn run(
         .step_by(stride)
         .flat_map(|w| std::iter::once(w.centre).chain(w.estimated.iter().copied()))
         .collect();
-    let (runs_subset, _) = three_methods(
+    let (runs_subset, _) = all_methods(
         &scene,
         &grid,
         &hemi,
@@ -361,18 +421,21 @@ pub fn run(
     let mut solves = Vec::new();
     let mut images = Vec::new();
     let mut exact_image: Option<Image> = None;
-    for (k, (m, run)) in matrices.iter().zip(&runs_all).enumerate() {
+    for (k, (way, m)) in matrices.iter().enumerate() {
         progress(
-            &format!("solve and render the loft, {}", run.method),
+            &format!("solve and render the loft, {}", way.name()),
             k + 1,
-            3,
+            matrices.len(),
         );
         let solved: Solved = solve(m, &s, &opts)?;
         let t = Instant::now();
         let img = render(&scene, &grid, &view, &solved.solution.display(&s), &rcfg)?;
         let render_seconds = t.elapsed().as_secs_f64();
         let mut image_difference = None;
-        let mode = [None, Some(Mode::Faithful), Some(Mode::Improved)][k];
+        let mode = match way {
+            Way::Estimated(m) => Some(*m),
+            _ => None,
+        };
         match &exact_image {
             None => {
                 images.push(("loft_exact".to_string(), img.clone(), true));
@@ -395,7 +458,7 @@ pub fn run(
             }
         }
         solves.push(SolveRun {
-            method: run.method.clone(),
+            method: way.name(),
             solver: SolverJson::new(&solved, &opts),
             scaling_seconds: solved.scaling_seconds,
             solve_seconds: solved.solve_seconds,
@@ -471,7 +534,7 @@ fn scene_solves(
     Ok(scene_solves_with_b(name, scene, res, tolerance, closed, progress)?.0)
 }
 
-/// Exact rows of every patch, both solvers, the furnace if the scene is closed; the
+/// Exact rows of every patch (by scan), both solvers, the furnace if the scene is closed; the
 /// Gauss-Seidel radiosities (for display) come back too.
 fn scene_solves_with_b(
     name: &str,
@@ -483,11 +546,12 @@ fn scene_solves_with_b(
 ) -> Result<(SceneSolves, Vec<[f64; 3]>), Error> {
     let n = scene.patches().len();
     progress(&format!("{name}: form factors and solutions"), 0, 1);
-    let grid = VoxelGrid::build(scene, &default_grid())?;
     let hemi = Hemisphere::new(HemisphereConfig::exact(res.0, res.1))?;
     let all: Vec<PatchId> = (0..n as PatchId).collect();
     let t = Instant::now();
-    let rows = compute_rows(scene, &grid, &hemi, &all, &|_| {})?;
+    // Exact rows by polygon scan: the grid's rows to the bit (checked on the loft in
+    // Table 1), in a fraction of the time.
+    let rows = compute_rows_scan(scene, &hemi, &all, &|_| {})?;
     let form_factor_seconds = t.elapsed().as_secs_f64();
     let ff = rows_to_matrix(n, &rows)?;
     drop(rows);

@@ -94,6 +94,27 @@ fn results_do_not_depend_on_the_thread_count() {
 }
 
 #[test]
+fn scan_and_grid_give_the_same_rows() {
+    let scene = bench_scene("cornell.json");
+    let run = |caster: &str| {
+        coherad(&[
+            "formfactors",
+            scene.to_str().unwrap(),
+            "--resolution",
+            "30x120",
+            "--patches",
+            "0-60,500-520",
+            "--caster",
+            caster,
+        ])
+    };
+    let (scan, grid) = (run("scan"), run("grid"));
+    assert!(scan.status.success() && grid.status.success());
+    assert!(json(&scan)["rows"].as_array().unwrap().len() == 82);
+    assert_eq!(scan.stdout, grid.stdout);
+}
+
+#[test]
 fn bad_input_is_a_clear_error_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("rows.json");
