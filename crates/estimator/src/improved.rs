@@ -4,9 +4,9 @@
 use crate::config::{EstimatorConfig, HoleFill};
 use crate::faithful::{fill_holes, motion, splat, CellTrig, Estimator, HOLE};
 use crate::source::SourceHemisphere;
-use rad_core::{PatchId, Ray, RayCast};
-use rad_geometry::{Scene, MISS};
-use rad_hemisphere::{Hemisphere, ItemBuffer, BACK, ESCAPED};
+use rad_core::{PatchId, RayCast};
+use rad_geometry::Scene;
+use rad_hemisphere::{Hemisphere, ItemBuffer, NearestHits, BACK, ESCAPED, NO_HIT};
 
 /// An estimated hemisphere from the improved mode.
 #[derive(Clone, Debug, Default)]
@@ -22,6 +22,12 @@ pub struct ImprovedEstimate {
 
 /// Polygon guessed for a cell whose source saw no polygon (escaped or back-facing).
 const NO_GUESS: u32 = u32::MAX;
+
+thread_local! {
+    /// Per-thread nearest-hit buffers (3.6 MB at 180 × 720), kept between estimates:
+    /// a window's estimates share their polygon, hence their world directions.
+    static HITS: std::cell::RefCell<NearestHits> = std::cell::RefCell::new(NearestHits::default());
+}
 
 impl Estimator<'_> {
     /// Estimates H2 at patch `to` from `src` by visibility estimation.
@@ -71,162 +77,124 @@ pub(crate) fn estimate_improved_with<C: RayCast>(
     let (holes, _) = fill_holes(hemi, &mut guess, HoleFill::RingNeighbour, |c| {
         polygon_of(src.items.patch[c])
     });
-    // 2. Resolve each cell with its own ray.
+    // 2. Resolve each cell with its own ray, against the polygons guessed for it and its
+    // 8 neighbours: polygon by polygon over spans of a ring (vectorised, the voxel grid's
+    // arithmetic), each polygon tested on the cells it is guessed for, grown by one cell
+    // each way (so on every cell that has it among its 3 × 3 guesses), in increasing id
+    // order so that ties go to the lower id, as in the grid.
     let target = &scene.patches()[to as usize];
     let own = target.polygon;
     let polygons = scene.polygons();
-    let frame = polygons[own as usize].frame();
     let o = target.center;
     let (n_theta, n_phi) = (hemi.n_theta(), hemi.n_phi());
     let mut out = ImprovedEstimate {
         holes,
         ..Default::default()
     };
-    out.items.patch.reserve(hemi.n_cells());
-    out.items.dist.reserve(hemi.n_cells());
-    let mut ray = Ray::new(o, frame.n);
-    ray.skip = own;
     // Every polygon's terms for this origin, computed once (a few hundred flops).
     let terms_of: Vec<[f32; 3]> = polygons.iter().map(|p| p.origin_terms(o)).collect();
     let usable = |g: u32| g != NO_GUESS && g != HOLE && g != own;
-    // Whether cell j's row-neighbours (j − 1, j, j + 1, φ wrapping) guess alike, for the
-    // rings i − 1, i and i + 1 (θ clamping): a cell is uniform when its 3 × 3 block is.
-    let row_alike = |r: usize, out: &mut Vec<bool>| {
-        let g = &guess[r * n_phi..(r + 1) * n_phi];
-        out.clear();
-        out.extend((0..n_phi).map(|j| {
-            let (jl, jr) = (
-                if j == 0 { n_phi - 1 } else { j - 1 },
-                if j + 1 == n_phi { 0 } else { j + 1 },
-            );
-            g[jl] == g[j] && g[j] == g[jr]
-        }));
-    };
-    let (mut above, mut here, mut below) = (Vec::new(), Vec::new(), Vec::new());
-    row_alike(0, &mut here);
-    above.clone_from(&here);
-    let mut world = vec![glam::Vec3::ZERO; n_phi];
-    let mut uniform_of = vec![false; n_phi];
-    let mut batch_patch = vec![MISS; n_phi];
-    let mut batch_t = vec![0.0f32; n_phi];
-    let mut batched = vec![false; n_phi];
-    for i in 0..n_theta {
-        let i_below = (i + 1).min(n_theta - 1);
-        row_alike(i_below, &mut below);
-        let rows = [i.saturating_sub(1), i, i_below];
-        let dirs = &hemi.directions()[i * n_phi..(i + 1) * n_phi];
-        let g_ring = &guess[i * n_phi..(i + 1) * n_phi];
-        for j in 0..n_phi {
-            world[j] = frame.world_from_local(dirs[j]);
-            // The whole 3 × 3 block guesses one polygon (most cells).
-            let g0 = g_ring[j];
-            uniform_of[j] = above[j]
-                && here[j]
-                && below[j]
-                && guess[rows[0] * n_phi + j] == g0
-                && guess[rows[2] * n_phi + j] == g0;
-        }
-        // Runs of uniform cells guessing one parallelogram: their single ray-polygon
-        // tests in one batch (`Polygon::front_hits_from`, the same arithmetic).
-        batched.fill(false);
+    // Runs of equal usable guesses, ring by ring: (polygon, first sector, end).
+    let mut runs: Vec<(u32, u32, u32)> = Vec::new();
+    let mut ring_runs = Vec::with_capacity(n_theta + 1);
+    ring_runs.push(0);
+    for ring in guess.chunks(n_phi) {
         let mut j = 0;
         while j < n_phi {
-            let g0 = g_ring[j];
-            if !(uniform_of[j] && usable(g0)) {
-                j += 1;
-                continue;
-            }
+            let g = ring[j];
             let mut e = j + 1;
-            while e < n_phi && uniform_of[e] && g_ring[e] == g0 {
+            while e < n_phi && ring[e] == g {
                 e += 1;
             }
-            let poly = &polygons[g0 as usize];
-            if poly
-                .front_hits_from(
-                    terms_of[g0 as usize],
-                    &world[j..e],
-                    &mut batch_patch[j..e],
-                    &mut batch_t[j..e],
-                )
-                .is_some()
-            {
-                batched[j..e].fill(true);
-                out.tests += e - j;
+            if usable(g) {
+                runs.push((g, j as u32, e as u32));
             }
             j = e;
         }
-        for j in 0..n_phi {
-            let d = world[j];
-            let g0 = g_ring[j];
-            let uniform = uniform_of[j];
-            if batched[j] {
-                if batch_patch[j] != MISS {
-                    out.items.patch.push(batch_patch[j]);
-                    out.items.dist.push(batch_t[j]);
-                    continue;
-                }
-            } else if uniform && usable(g0) {
-                let poly = &polygons[g0 as usize];
-                out.tests += 1;
-                if let Some((t, u, v, true)) =
-                    poly.intersect_from(terms_of[g0 as usize], d, f32::INFINITY)
-                {
-                    out.items.patch.push(poly.patch_at(u, v));
-                    out.items.dist.push(t);
-                    continue;
-                }
-            }
-            let mut cand = [NO_GUESS; 9];
-            let mut n_cand = 0;
-            if !uniform {
-                let (jl, jr) = (
-                    if j == 0 { n_phi - 1 } else { j - 1 },
-                    if j + 1 == n_phi { 0 } else { j + 1 },
-                );
-                for r in rows {
-                    for jj in [jl, j, jr] {
-                        let g = guess[r * n_phi + jj];
-                        if usable(g) && !cand[..n_cand].contains(&g) {
-                            cand[n_cand] = g;
-                            n_cand += 1;
-                        }
-                    }
-                }
-                cand[..n_cand].sort_unstable();
-            }
-            // The nearest hit among the candidates, whichever its side; ties go to the
-            // lower polygon id, as in the grid. A back face nearest (something seen from
-            // behind, or an occluder met from inside) is left to a real ray.
-            let mut best: Option<(f32, u32, f32, f32, bool)> = None;
-            for &p in &cand[..n_cand] {
-                out.tests += 1;
-                let t_max = best.map_or(f32::INFINITY, |b| b.0);
-                let terms = terms_of[p as usize];
-                if let Some((t, u, v, front)) = polygons[p as usize].intersect_from(terms, d, t_max)
-                {
-                    best = Some((t, p, u, v, front));
-                }
-            }
-            let (id, dist) = match best {
-                Some((t, p, u, v, true)) => (polygons[p as usize].patch_at(u, v), t),
-                _ => {
-                    out.real_rays += 1;
-                    ray.dir = d;
-                    match caster.closest_hit(&ray, scratch) {
-                        Some(h) if h.front => {
-                            (polygons[h.polygon as usize].patch_at(h.u, h.v), h.t)
-                        }
-                        Some(h) => (BACK, h.t),
-                        None => (ESCAPED, f32::INFINITY),
-                    }
-                }
-            };
-            out.items.patch.push(id);
-            out.items.dist.push(dist);
-        }
-        std::mem::swap(&mut above, &mut here);
-        std::mem::swap(&mut here, &mut below);
+        ring_runs.push(runs.len());
     }
+    HITS.with_borrow_mut(|hits| {
+        hits.begin(hemi, scene, own);
+        let tests_before = hits.tests;
+        let n = n_phi as i64;
+        // Per ring: (polygon, first, end) in sectors unwrapped to [−1, n + 1).
+        let mut spans: Vec<(u32, i64, i64)> = Vec::new();
+        for i in 0..n_theta {
+            spans.clear();
+            for r in [i.saturating_sub(1), i, (i + 1).min(n_theta - 1)] {
+                spans.extend(
+                    runs[ring_runs[r]..ring_runs[r + 1]]
+                        .iter()
+                        .map(|&(g, a, b)| (g, a as i64 - 1, b as i64 + 1)),
+                );
+            }
+            spans.sort_unstable();
+            let ring = i * n_phi;
+            let mut k = 0;
+            while k < spans.len() {
+                // Merge the overlapping spans of one polygon.
+                let (g, a, mut b) = spans[k];
+                k += 1;
+                while k < spans.len() && spans[k].0 == g && spans[k].1 <= b {
+                    b = b.max(spans[k].2);
+                    k += 1;
+                }
+                let poly = &polygons[g as usize];
+                let terms = terms_of[g as usize];
+                if b - a >= n {
+                    hits.test(poly, g, terms, ring..ring + n_phi);
+                    continue;
+                }
+                // Wrap into [0, n): at most two pieces.
+                let (a, b) = (a.rem_euclid(n), a.rem_euclid(n) + (b - a));
+                if b <= n {
+                    hits.test(poly, g, terms, ring + a as usize..ring + b as usize);
+                } else {
+                    hits.test(poly, g, terms, ring + a as usize..ring + n_phi);
+                    hits.test(poly, g, terms, ring..ring + (b - n) as usize);
+                }
+            }
+        }
+        out.tests = (hits.tests - tests_before) as usize;
+        // The nearest hit if it is a front one (runs of cells with one polygon looked up
+        // together); otherwise (a back face nearest, or no guess hit) a real ray.
+        let n_cells = hemi.n_cells();
+        let (best, (bt, bu, bv)) = (hits.polygons(), hits.t_u_v());
+        let (patch, dist) = (&mut out.items.patch, &mut out.items.dist);
+        patch.clear();
+        patch.resize(n_cells, ESCAPED);
+        dist.clear();
+        dist.resize(n_cells, f32::INFINITY);
+        let mut real = Vec::new();
+        let mut k = 0;
+        while k < n_cells {
+            let p = best[k];
+            let mut end = k + 1;
+            while end < n_cells && best[end] == p {
+                end += 1;
+            }
+            if p != NO_HIT && terms_of[p as usize][0] < 0.0 {
+                polygons[p as usize].patches_at(&bu[k..end], &bv[k..end], &mut patch[k..end]);
+                dist[k..end].copy_from_slice(&bt[k..end]);
+            } else {
+                real.extend(k..end);
+            }
+            k = end;
+        }
+        out.real_rays = real.len();
+        if !real.is_empty() {
+            let dirs: Vec<glam::Vec3> = real.iter().map(|&c| hits.direction(c)).collect();
+            let mut cast = Vec::with_capacity(dirs.len());
+            caster.closest_hits_from(o, own, &dirs, scratch, &mut cast);
+            for (&c, h) in real.iter().zip(&cast) {
+                (patch[c], dist[c]) = match h {
+                    Some(h) if h.front => (polygons[h.polygon as usize].patch_at(h.u, h.v), h.t),
+                    Some(h) => (BACK, h.t),
+                    None => (ESCAPED, f32::INFINITY),
+                };
+            }
+        }
+    });
     let _ = config;
     out
 }

@@ -357,84 +357,50 @@ impl Polygon {
         inside.then_some((t, u, v, front))
     }
 
-    /// Front hits of many rays from one origin: for each direction `dirs[k]`, the
-    /// patch and distance that [`Polygon::intersect_from`] (with `t_max` infinite) and
-    /// [`Polygon::patch_at`] give when the ray meets this polygon's front inside it,
-    /// else `patch[k] = MISS`. Parallelograms only (`None` otherwise, so the caller
-    /// tests ray by ray). The arithmetic is `intersect_from`'s, operation for operation,
-    /// in a branch-free loop that vectorises (compiled for AVX2 too, chosen at run time).
-    pub fn front_hits_from(
-        &self,
-        terms: [f32; 3],
-        dirs: &[Vec3],
-        patch: &mut [PatchId],
-        t: &mut [f32],
-    ) -> Option<()> {
-        if !self.parallelogram {
-            return None;
-        }
+    /// [`Polygon::patch_at`] of many parameters at once: `out[k] = patch_at(u[k], v[k])`,
+    /// the same arithmetic in a branch-free loop that vectorises (compiled for AVX2 too,
+    /// chosen at run time, with gathers for the patch texture).
+    ///
+    /// # Panics
+    /// If the three slices differ in length.
+    pub fn patches_at(&self, u: &[f32], v: &[f32], out: &mut [PatchId]) {
         assert!(
-            patch.len() == dirs.len() && t.len() == dirs.len(),
-            "one output per direction"
+            u.len() == out.len() && v.len() == out.len(),
+            "one patch per (u, v)"
         );
         #[cfg(target_arch = "x86_64")]
         if rad_core::has_avx2() {
             // SAFETY: the CPU has AVX2.
-            unsafe { self.front_cells_avx2(terms, dirs, patch, t) };
-        } else {
-            self.front_cells(terms, dirs, patch, t);
+            unsafe { self.patches_at_avx2(u, v, out) };
+            return;
         }
-        #[cfg(not(target_arch = "x86_64"))]
-        self.front_cells(terms, dirs, patch, t);
-        for p in patch.iter_mut() {
-            if *p != MISS {
-                *p = self.cell_patch[*p as usize];
-            }
-        }
-        Some(())
+        self.patches_at_body(u, v, out);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn front_cells_avx2(
-        &self,
-        terms: [f32; 3],
-        dirs: &[Vec3],
-        cell: &mut [u32],
-        t: &mut [f32],
-    ) {
-        self.front_cells(terms, dirs, cell, t)
+    unsafe fn patches_at_avx2(&self, u: &[f32], v: &[f32], out: &mut [PatchId]) {
+        self.patches_at_body(u, v, out)
     }
 
-    /// The cell index (`j·nu + i`) of each front hit, or `MISS`.
     #[inline(always)]
-    fn front_cells(&self, terms: [f32; 3], dirs: &[Vec3], cell: &mut [u32], t_out: &mut [f32]) {
+    fn patches_at_body(&self, u: &[f32], v: &[f32], out: &mut [PatchId]) {
         let [u0, su, v0, sv] = self.grid_map;
         let (nu1, nv1) = ((self.nu - 1) as f32, (self.nv - 1) as f32);
-        let (lo_u, hi_u) = (-self.eps_u, 1.0 + self.eps_u);
-        let (lo_v, hi_v) = (-self.eps_v, 1.0 + self.eps_v);
-        let n = dirs.len();
-        let (cell, t_out) = (&mut cell[..n], &mut t_out[..n]);
+        let n = out.len();
+        let (u, v) = (&u[..n], &v[..n]);
+        let table = &self.cell_patch[..];
+        debug_assert!(table.len() == (self.nu * self.nv) as usize);
         for k in 0..n {
-            let d = dirs[k];
-            let denom = self.normal.dot(d);
-            let t = terms[0] / denom;
-            let u = terms[1] + t * self.du.dot(d);
-            let v = terms[2] + t * self.dv.dot(d);
-            let hit = (t > 0.0)
-                & (t < f32::INFINITY)
-                & (denom < 0.0)
-                & (u >= lo_u)
-                & (v >= lo_v)
-                & (u <= hi_u)
-                & (v <= hi_v);
             // As in `cell_at`.
-            let fi = ((u - u0) * su).max(0.0).min(nu1);
-            let fj = ((v - v0) * sv).max(0.0).min(nv1);
-            // SAFETY: fi and fj are finite and in [0, n − 1] (`max` drops a NaN).
-            let (i, j) = unsafe { (fi.to_int_unchecked::<u32>(), fj.to_int_unchecked::<u32>()) };
-            cell[k] = if hit { j * self.nu + i } else { MISS };
-            t_out[k] = t;
+            let fi = ((u[k] - u0) * su).max(0.0).min(nu1);
+            let fj = ((v[k] - v0) * sv).max(0.0).min(nv1);
+            // SAFETY: fi and fj are finite and in [0, n − 1] (`max` drops a NaN), so
+            // j·nu + i indexes the nu × nv texture.
+            out[k] = unsafe {
+                let (i, j) = (fi.to_int_unchecked::<u32>(), fj.to_int_unchecked::<u32>());
+                *table.get_unchecked((j * self.nu + i) as usize)
+            };
         }
     }
 

@@ -21,34 +21,56 @@ use glam::{DVec3, Vec3};
 use rad_core::{PatchId, PolygonId};
 use rad_geometry::{Polygon, Scene};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::ops::Range;
 
-/// No polygon yet: the cell's ray has met nothing.
-const NONE: u32 = u32::MAX;
+/// No polygon yet: the cell's ray has met nothing (in [`NearestHits::polygons`]).
+pub const NO_HIT: u32 = u32::MAX;
+const NONE: u32 = NO_HIT;
 
-/// Per-thread working memory of [`Hemisphere::scan`]: world directions for the frame
-/// last used, and the per-cell nearest hit.
+/// The nearest hit of every cell's ray of one hemisphere, against polygons tested on
+/// chosen cells: the voxel grid's ray–polygon test, term for term (so the same bits),
+/// run over spans of cells (vectorised), keeping per cell the nearest hit, ties to the
+/// polygon tested first. [`Hemisphere::scan`] tests each polygon on its angular box;
+/// the improved estimator tests the polygons guessed around each cell.
 #[derive(Clone, Debug, Default)]
-pub struct ScanScratch {
+pub struct NearestHits {
     /// Polygon whose frame `dx, dy, dz` are for, and the hemisphere they were made with.
     dirs_for: Option<(PolygonId, usize, usize, u64)>,
-    dx: Vec<f32>,
-    dy: Vec<f32>,
-    dz: Vec<f32>,
     /// Local directions, by component (for the hemisphere in `dirs_for`).
     lx: Vec<f32>,
     ly: Vec<f32>,
     lz: Vec<f32>,
+    dx: Vec<f32>,
+    dy: Vec<f32>,
+    dz: Vec<f32>,
     /// Every direction leaves the polygon's plane forwards (as the grid checks it).
     forward: bool,
-    /// Cells of a span that passed the vectorised part of a test (for the scalar rest).
-    mask: Vec<u8>,
-    /// Per polygon: its hits are front hits (its plane term is negative).
-    front: Vec<bool>,
     best_t: Vec<f32>,
     best_p: Vec<u32>,
     best_u: Vec<f32>,
     best_v: Vec<f32>,
-    /// (cell, polygon) tests so far, and polygons tested on every cell.
+    /// Cells of a span that passed the vectorised part of a test (for the scalar rest).
+    mask: Vec<u8>,
+    /// (cell, polygon) tests so far.
+    pub tests: u64,
+}
+
+/// One cell's nearest hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CellHit {
+    pub polygon: PolygonId,
+    pub t: f32,
+    pub u: f32,
+    pub v: f32,
+}
+
+/// Per-thread working memory of [`Hemisphere::scan`].
+#[derive(Clone, Debug, Default)]
+pub struct ScanScratch {
+    hits: NearestHits,
+    /// Per polygon: its hits are front hits (its plane term is negative).
+    front: Vec<bool>,
+    /// Work counts so far.
     pub stats: ScanStats,
 }
 
@@ -101,14 +123,9 @@ impl Hemisphere {
         let own = p.polygon;
         let polygons = scene.polygons();
         let n_cells = self.n_cells();
-        self.prepare_dirs(&polygons[own as usize], own, scratch);
+        let tests_before = scratch.hits.tests;
+        scratch.hits.begin(self, scene, own);
         let s = scratch;
-        s.best_t.clear();
-        s.best_t.resize(n_cells, f32::INFINITY);
-        s.best_p.clear();
-        s.best_p.resize(n_cells, NONE);
-        s.best_u.resize(n_cells, 0.0);
-        s.best_v.resize(n_cells, 0.0);
         s.stats.hemispheres += 1;
         s.front.clear();
         s.front.resize(polygons.len(), false);
@@ -121,7 +138,7 @@ impl Hemisphere {
                 continue;
             }
             // The grid's culling: wholly behind the plane by more than the polygon's reach.
-            if s.forward {
+            if s.hits.forward {
                 let reach = poly.reach() as f64;
                 if poly
                     .vertices()
@@ -131,18 +148,8 @@ impl Hemisphere {
                     continue;
                 }
             }
-            let [num, u0, v0] = poly.origin_terms(o);
-            let (du, dv) = poly.dual_basis();
-            let terms = Terms {
-                id: id as u32,
-                num,
-                u0,
-                v0,
-                n: poly.normal(),
-                du,
-                dv,
-                bounds: poly.uv_bounds(),
-            };
+            let terms = poly.origin_terms(o);
+            let num = terms[0];
             // t = num / (n·d) > 0: front hits (n·d < 0) need num < 0, back hits num > 0,
             // and num = 0 gives none.
             if num == 0.0 || num.is_nan() {
@@ -159,7 +166,7 @@ impl Hemisphere {
                 Region::None => {}
                 Region::All => {
                     s.stats.full += 1;
-                    test_span(poly, &terms, s, 0, n_cells);
+                    s.hits.test(poly, id as u32, terms, 0..n_cells);
                 }
                 Region::Box { theta, phi } => {
                     let (nt, np) = (self.n_theta(), self.n_phi());
@@ -184,11 +191,11 @@ impl Hemisphere {
                     for i in i0..=i1 {
                         let ring = i * np;
                         match spans {
-                            None => test_span(poly, &terms, s, ring, ring + np),
+                            None => s.hits.test(poly, id as u32, terms, ring..ring + np),
                             Some(spans) => {
                                 for (a, b) in spans {
                                     if b > a {
-                                        test_span(poly, &terms, s, ring + a, ring + b);
+                                        s.hits.test(poly, id as u32, terms, ring + a..ring + b);
                                     }
                                 }
                             }
@@ -201,32 +208,102 @@ impl Hemisphere {
         buf.dist.clear();
         buf.patch.reserve(n_cells);
         buf.dist.reserve(n_cells);
+        s.stats.tests += s.hits.tests - tests_before;
         // Runs of cells that met the same polygon share its lookups.
+        let h = &s.hits;
         let mut k = 0;
         while k < n_cells {
-            let bp = s.best_p[k];
+            let bp = h.best_p[k];
             let mut end = k + 1;
-            while end < n_cells && s.best_p[end] == bp {
+            while end < n_cells && h.best_p[end] == bp {
                 end += 1;
             }
             if bp == NONE {
                 buf.patch.extend(std::iter::repeat_n(ESCAPED, end - k));
                 buf.dist.extend(std::iter::repeat_n(f32::INFINITY, end - k));
             } else if s.front[bp as usize] {
-                let poly = &polygons[bp as usize];
-                buf.patch
-                    .extend((k..end).map(|c| poly.patch_at(s.best_u[c], s.best_v[c])));
-                buf.dist.extend_from_slice(&s.best_t[k..end]);
+                buf.patch.resize(end, 0);
+                polygons[bp as usize].patches_at(
+                    &h.best_u[k..end],
+                    &h.best_v[k..end],
+                    &mut buf.patch[k..end],
+                );
+                buf.dist.extend_from_slice(&h.best_t[k..end]);
             } else {
                 buf.patch.extend(std::iter::repeat_n(BACK, end - k));
-                buf.dist.extend_from_slice(&s.best_t[k..end]);
+                buf.dist.extend_from_slice(&h.best_t[k..end]);
             }
             k = end;
         }
     }
+}
 
+impl NearestHits {
+    /// Starts a hemisphere of `hemi` on polygon `own` of `scene`: no hits yet; the cells'
+    /// world directions are made for `own`'s frame (kept while `own` stays the same).
+    pub fn begin(&mut self, hemi: &Hemisphere, scene: &Scene, own: PolygonId) {
+        hemi.prepare_dirs(&scene.polygons()[own as usize], own, self);
+        let n_cells = hemi.n_cells();
+        self.best_t.clear();
+        self.best_t.resize(n_cells, f32::INFINITY);
+        self.best_p.clear();
+        self.best_p.resize(n_cells, NONE);
+        self.best_u.resize(n_cells, 0.0);
+        self.best_v.resize(n_cells, 0.0);
+    }
+
+    /// Tests polygon `id` (= `poly`), with its [`Polygon::origin_terms`] for the
+    /// hemisphere's origin, on `cells`, keeping the nearer hit (strictly: a tie keeps the
+    /// polygon tested first). Front hits count where [`Polygon::contains_uv`] holds, back
+    /// hits where [`Polygon::contains_uv_back`] does, as in the grid.
+    pub fn test(&mut self, poly: &Polygon, id: PolygonId, terms: [f32; 3], cells: Range<usize>) {
+        let (du, dv) = poly.dual_basis();
+        let h = Terms {
+            id,
+            num: terms[0],
+            u0: terms[1],
+            v0: terms[2],
+            n: poly.normal(),
+            du,
+            dv,
+            bounds: poly.uv_bounds(),
+        };
+        test_span(poly, &h, self, cells.start, cells.end);
+    }
+
+    /// The nearest hit of cell `c`'s ray so far.
+    #[inline]
+    pub fn hit(&self, c: usize) -> Option<CellHit> {
+        let p = self.best_p[c];
+        (p != NONE).then(|| CellHit {
+            polygon: p,
+            t: self.best_t[c],
+            u: self.best_u[c],
+            v: self.best_v[c],
+        })
+    }
+
+    /// Per cell: the polygon of the nearest hit so far, or [`NO_HIT`].
+    pub fn polygons(&self) -> &[PolygonId] {
+        &self.best_p
+    }
+
+    /// Per cell: the nearest hit's distance and (u, v) (meaningless where no hit).
+    pub fn t_u_v(&self) -> (&[f32], &[f32], &[f32]) {
+        (&self.best_t, &self.best_u, &self.best_v)
+    }
+
+    /// The world direction of cell `c`'s ray (as [`rad_core::Frame::world_from_local`]
+    /// gives it).
+    #[inline]
+    pub fn direction(&self, c: usize) -> Vec3 {
+        Vec3::new(self.dx[c], self.dy[c], self.dz[c])
+    }
+}
+
+impl Hemisphere {
     /// World directions of the cells for `poly`'s frame, unless already there.
-    fn prepare_dirs(&self, poly: &Polygon, id: PolygonId, s: &mut ScanScratch) {
+    fn prepare_dirs(&self, poly: &Polygon, id: PolygonId, s: &mut NearestHits) {
         let key = (
             id,
             self.n_theta(),
@@ -259,14 +336,14 @@ impl Hemisphere {
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn world_dirs_avx2(poly: &Polygon, s: &mut ScanScratch) -> bool {
+unsafe fn world_dirs_avx2(poly: &Polygon, s: &mut NearestHits) -> bool {
     world_dirs(poly, s)
 }
 
 /// `Frame::world_from_local` of every cell's direction, component by component (the
 /// same sums in the same order, so the same bits); true if all leave the plane forwards.
 #[inline(always)]
-fn world_dirs(poly: &Polygon, s: &mut ScanScratch) -> bool {
+fn world_dirs(poly: &Polygon, s: &mut NearestHits) -> bool {
     let f = poly.frame();
     let n = poly.normal();
     let len = s.lx.len();
@@ -290,8 +367,8 @@ fn world_dirs(poly: &Polygon, s: &mut ScanScratch) -> bool {
 
 /// Tests cells `a..b` against one polygon, keeping the nearer hit (ties keep the earlier,
 /// lower polygon id).
-fn test_span(poly: &Polygon, h: &Terms, s: &mut ScanScratch, a: usize, b: usize) {
-    s.stats.tests += (b - a) as u64;
+fn test_span(poly: &Polygon, h: &Terms, s: &mut NearestHits, a: usize, b: usize) {
+    s.tests += (b - a) as u64;
     // A front-facing parallelogram is inside its (u, v) bounds alone: every lane runs
     // the same code and writes its hit. Other polygons take the bounds as a first cut,
     // then their own inside test cell by cell.

@@ -1,0 +1,65 @@
+//! Hash of improved-mode estimates over windows of the bench scenes (to compare two
+//! builds): `cargo run --release -p rad-estimator --example improved_hash`.
+use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
+use rad_core::RayCast;
+use rad_estimator::{
+    windows, Estimator, EstimatorConfig, HoleFill, Mode, Reprojection, SourceHemisphere,
+    ThresholdTest,
+};
+use rad_geometry::scenes::{cornell_box, cube, loft, CORNELL_PATCH_MM};
+use rad_geometry::Scene;
+use rad_hemisphere::{Hemisphere, HemisphereConfig};
+use std::hash::{Hash, Hasher};
+
+fn main() {
+    let config = EstimatorConfig {
+        mode: Mode::Improved,
+        fill: HoleFill::RingNeighbour,
+        reprojection: Reprojection::FirstOrder {
+            test: ThresholdTest::Lateral,
+            threshold: 10.0,
+        },
+        boundary_lists: false,
+        max_real_ray_share: 0.05,
+    };
+    for (res, shift) in [((180, 720), 0.0), ((45, 180), 0.5), ((3, 5), 0.0)] {
+        let hemi = Hemisphere::new(HemisphereConfig {
+            phi_shift: shift,
+            ..HemisphereConfig::exact(res.0, res.1)
+        })
+        .unwrap();
+        for (name, desc) in [("loft", loft()), ("cube", cube(10)), ("cornell", cornell_box(CORNELL_PATCH_MM))] {
+            let scene = Scene::new(desc).unwrap();
+            let grid = VoxelGrid::build(
+                &scene,
+                &VoxelGridConfig {
+                    resolution: GridResolution::Auto {
+                        density: 4.0,
+                        max_per_axis: 256,
+                    },
+                },
+            )
+            .unwrap();
+            let mut scratch = grid.new_scratch();
+            let all = windows(&scene);
+            let est = Estimator::new(&hemi);
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            let (mut real, mut n) = (0, 0);
+            let t = std::time::Instant::now();
+            for k in 0..12 {
+                let w = &all[(k * 509 + 100) % all.len()];
+                let src = SourceHemisphere::cast(&scene, &grid, &hemi, w.centre, false, &mut scratch);
+                for &p in &w.estimated {
+                    let e = est.improved(&scene, &grid, &src, p, &config, &mut scratch);
+                    e.items.patch.hash(&mut h);
+                    for d in &e.items.dist {
+                        d.to_bits().hash(&mut h);
+                    }
+                    real += e.real_rays;
+                    n += 1;
+                }
+            }
+            println!("{name} {res:?}: {n} estimates, {real} real rays, hash {:016x}, {:.1} ms", h.finish(), t.elapsed().as_secs_f64() * 1e3);
+        }
+    }
+}
