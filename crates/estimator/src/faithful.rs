@@ -397,6 +397,7 @@ pub(crate) fn splat(
     let (mut c2s, mut xs) = (vec![0.0f32; n_phi], vec![0.0f32; n_phi]);
     let mut roughs = vec![NOWHERE; n_phi];
     let mut sures = vec![false; n_phi];
+    let (mut fin_cell, mut fin_r2) = (vec![NOWHERE; n_phi], vec![0.0f32; n_phi]);
     let project = |i: usize, j: usize, r: f32| -> (u32, f32) {
         let (st, ct) = (trig.st[i], trig.ct[i]);
         let far_scale = if lateral {
@@ -512,6 +513,31 @@ pub(crate) fn splat(
             &src.items.patch[ring..ring + n],
             &src.items.dist[ring..ring + n],
         );
+        if rough && !has_lists {
+            // The rough destinations need no edge corrections: pick every point's cell
+            // and distance in one branch-free pass, then only the z-buffered writes.
+            let (fin_cell, fin_r2) = (&mut fin_cell[..n], &mut fin_r2[..n]);
+            for j in 0..n {
+                let exact_path = dest[j] == EXACT_PATH;
+                let finite = src_dist[j].is_finite();
+                // (A point at infinity stays in its own cell, as `project` keeps it.)
+                let own = (ring + j) as u32;
+                fin_cell[j] = match (exact_path, finite) {
+                    (false, _) => dest[j],
+                    (true, true) => roughs[j],
+                    (true, false) => own,
+                };
+                fin_r2[j] = if exact_path && !finite {
+                    f32::INFINITY
+                } else {
+                    dist2[j]
+                };
+            }
+            for j in 0..n {
+                put(fin_cell[j], fin_r2[j], src_patch[j]);
+            }
+            continue;
+        }
         for j in 0..n {
             let (cell, r2) = if dest[j] == EXACT_PATH {
                 let r = src_dist[j];
@@ -564,8 +590,6 @@ pub(crate) fn fill_holes(
 ) -> (usize, f64) {
     let n = hemi.n_phi();
     let (mut holes, mut hole_ff) = (0, 0.0);
-    // Per ring: distance to and value of the nearest written cell on each side.
-    let mut left: Vec<(usize, PatchId)> = vec![(usize::MAX, HOLE); n];
     for (i, ff) in hemi.ring_form_factors().iter().enumerate() {
         let ring = &mut ids[i * n..(i + 1) * n];
         let n_holes = ring.iter().filter(|&&id| id == HOLE).count();
@@ -582,34 +606,28 @@ pub(crate) fn fill_holes(
             }
             continue;
         }
-        // Nearest written cell of the ring, wrapping: one sweep each way, started from the
-        // last written cell before it (so that the ring wraps).
-        let last_written = (0..n)
-            .rev()
-            .find(|&j| ring[j] != HOLE)
+        // Each run of holes takes, cell by cell, the nearer of the written cells that
+        // bound it (wrapping round the ring); the lower φ (left) wins ties, as a search
+        // alternating left first would. Positions run from the first written cell over
+        // one turn (`at` wraps them).
+        let first = ring
+            .iter()
+            .position(|&id| id != HOLE)
             .expect("the ring has a written cell");
-        let mut last = (last_written as isize - n as isize, ring[last_written]);
-        for j in 0..n {
-            if ring[j] != HOLE {
-                last = (j as isize, ring[j]);
+        let at = |p: usize| if p < n { p } else { p - n };
+        let mut j = first;
+        while j < first + n {
+            let mut k = j + 1;
+            while k < first + n && ring[at(k)] == HOLE {
+                k += 1;
             }
-            left[j] = ((j as isize - last.0) as usize, last.1);
-        }
-        let first_written = (0..n)
-            .find(|&j| ring[j] != HOLE)
-            .expect("the ring has a written cell");
-        let mut next = (first_written + n, ring[first_written]);
-        for j in (0..n).rev() {
-            if ring[j] != HOLE {
-                next = (j, ring[j]);
-            } else {
-                // The lower φ (left) wins ties, as a search alternating left first would.
-                ring[j] = if left[j].0 <= next.0 - j {
-                    left[j].1
-                } else {
-                    next.1
-                };
+            if k > j + 1 {
+                let (lv, rv) = (ring[at(j)], ring[at(k)]);
+                for h in j + 1..k {
+                    ring[at(h)] = if h - j <= k - h { lv } else { rv };
+                }
             }
+            j = k;
         }
     }
     (holes, hole_ff)

@@ -1,5 +1,5 @@
-//! Hash of improved-mode estimates over windows of the bench scenes (to compare two
-//! builds): `cargo run --release -p rad-estimator --example improved_hash`.
+//! Hash of estimates (both modes) over windows of the bench scenes, to compare two
+//! builds bit for bit: `cargo run --release -p rad-estimator --example estimate_hash`.
 use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_estimator::{
@@ -44,6 +44,8 @@ fn main() {
             let all = windows(&scene);
             let est = Estimator::new(&hemi);
             let mut h = std::collections::hash_map::DefaultHasher::new();
+            let mut hf = std::collections::hash_map::DefaultHasher::new();
+            let faithful = EstimatorConfig { mode: Mode::Faithful, ..config };
             let (mut real, mut n) = (0, 0);
             let t = std::time::Instant::now();
             for k in 0..12 {
@@ -57,9 +59,15 @@ fn main() {
                     }
                     real += e.real_rays;
                     n += 1;
+                    let f = est.faithful(&scene, &src, p, &faithful);
+                    f.items.patch.hash(&mut hf);
+                    for d in &f.items.dist {
+                        d.to_bits().hash(&mut hf);
+                    }
+                    (f.holes, f.hole_ff.to_bits()).hash(&mut hf);
                 }
             }
-            println!("{name} {res:?}: {n} estimates, {real} real rays, hash {:016x}, {:.1} ms", h.finish(), t.elapsed().as_secs_f64() * 1e3);
+            println!("{name} {res:?}: {n} estimates, {real} real rays, improved {:016x}, faithful {:016x}, {:.1} ms", h.finish(), hf.finish(), t.elapsed().as_secs_f64() * 1e3);
         }
     }
 }
