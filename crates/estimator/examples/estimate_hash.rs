@@ -20,7 +20,8 @@ fn main() {
             threshold: 10.0,
         },
         boundary_lists: false,
-        max_real_ray_share: 0.05,
+        // Never abandoned, so that every estimate's items are compared.
+        max_real_ray_share: 1.0,
     };
     for (res, shift) in [((180, 720), 0.0), ((45, 180), 0.5), ((3, 5), 0.0)] {
         let hemi = Hemisphere::new(HemisphereConfig {

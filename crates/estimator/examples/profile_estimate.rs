@@ -1,6 +1,6 @@
-//! Estimates loft hemispheres at 180 × 720 in one mode, for instruction counts under
-//! `valgrind --tool=callgrind`: `MODE=faithful|improved cargo run --release -p
-//! rad-estimator --example profile_estimate`.
+//! Estimates hemispheres at 180 × 720 in one mode, for instruction counts under
+//! `valgrind --tool=callgrind`: `MODE=faithful|improved SCENE=loft|cube cargo run
+//! --release -p rad-estimator --example profile_estimate`.
 
 use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
@@ -8,7 +8,7 @@ use rad_estimator::{
     windows, Estimator, EstimatorConfig, HoleFill, Mode, Reprojection, SourceHemisphere,
     ThresholdTest,
 };
-use rad_geometry::scenes::loft;
+use rad_geometry::scenes::{cube, loft};
 use rad_geometry::Scene;
 use rad_hemisphere::{Hemisphere, HemisphereConfig};
 
@@ -28,7 +28,11 @@ fn main() {
         max_real_ray_share: 0.05,
     };
     let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).expect("valid resolution");
-    let scene = Scene::new(loft()).expect("valid loft");
+    let scene = match std::env::var("SCENE").as_deref() {
+        Ok("cube") => Scene::new(cube(10)),
+        _ => Scene::new(loft()),
+    }
+    .expect("valid scene");
     let grid_cfg = VoxelGridConfig {
         resolution: GridResolution::Auto {
             density: 4.0,
@@ -40,10 +44,13 @@ fn main() {
     let all = windows(&scene);
     let est = Estimator::new(&hemi);
     let mut cells = 0usize;
-    for k in 0..4 {
+    let mut seconds = 0.0;
+    let windows_used: usize = std::env::var("WINDOWS").map(|w| w.parse().unwrap()).unwrap_or(4);
+    for k in 0..windows_used {
         let w = &all[(k * 509 + 100) % all.len()];
         let src = SourceHemisphere::cast(&scene, &grid, &hemi, w.centre, false, &mut scratch);
         for &p in &w.estimated {
+            let t = std::time::Instant::now();
             let n = match mode {
                 Mode::Faithful => est.faithful(&scene, &src, p, &config).items.patch.len(),
                 Mode::Improved => est
@@ -52,8 +59,9 @@ fn main() {
                     .patch
                     .len(),
             };
+            seconds += t.elapsed().as_secs_f64();
             cells += n;
         }
     }
-    println!("{cells} cells estimated");
+    println!("{cells} cells estimated, {:.3} ms per estimate", 1e3 * seconds / (cells as f64 / hemi.n_cells() as f64));
 }

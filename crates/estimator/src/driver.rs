@@ -126,8 +126,7 @@ pub fn estimate_rows<C: RayCast>(
                         }
                         Mode::Improved => {
                             let e = est.improved(scene, caster, &src, p, config, scratch);
-                            let share = e.real_rays as f64 / hemi.n_cells() as f64;
-                            if share > config.max_real_ray_share {
+                            if e.abandoned {
                                 hemi.cast(scene, caster, p, scratch, buf);
                                 (std::mem::take(buf), e.holes, e.real_rays, e.tests, true)
                             } else {

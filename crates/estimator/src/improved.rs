@@ -14,8 +14,13 @@ pub struct ImprovedEstimate {
     pub items: ItemBuffer,
     /// Cells nothing landed in, before filling.
     pub holes: usize,
-    /// Cells whose guessed polygons all missed, resolved by a real ray.
+    /// Cells whose guessed polygons all missed (or whose nearest is a back face),
+    /// resolved by a real ray.
     pub real_rays: usize,
+    /// The estimate needed real rays for over `max_real_ray_share` of its cells and
+    /// stopped before casting them: `items` is empty, and the patch is to be cast
+    /// exactly (`real_rays` counts the rays it would have needed).
+    pub abandoned: bool,
     /// Ray–polygon tests made (without the real rays' own).
     pub tests: usize,
 }
@@ -182,6 +187,11 @@ pub(crate) fn estimate_improved_with<C: RayCast>(
             k = end;
         }
         out.real_rays = real.len();
+        if real.len() as f64 > config.max_real_ray_share * n_cells as f64 {
+            out.abandoned = true;
+            out.items = ItemBuffer::default();
+            return;
+        }
         if !real.is_empty() {
             let dirs: Vec<glam::Vec3> = real.iter().map(|&c| hits.direction(c)).collect();
             let mut cast = Vec::with_capacity(dirs.len());
@@ -195,6 +205,5 @@ pub(crate) fn estimate_improved_with<C: RayCast>(
             }
         }
     });
-    let _ = config;
     out
 }

@@ -173,10 +173,13 @@ pub fn timing(
                 let t = Instant::now();
                 std::hint::black_box(est.faithful(scene, &src, p, &faithful));
                 tf.push(t.elapsed().as_secs_f64());
+                // An abandoned estimate costs its exact cast too, as in the schedule.
                 let t = Instant::now();
-                real +=
-                    std::hint::black_box(est.improved(scene, &grid, &src, p, &improved, &mut s))
-                        .real_rays;
+                let e = est.improved(scene, &grid, &src, p, &improved, &mut s);
+                if e.abandoned {
+                    hemi.cast(scene, &grid, p, &mut s, &mut buf);
+                }
+                real += std::hint::black_box(e).real_rays;
                 ti.push(t.elapsed().as_secs_f64());
             }
         }
@@ -395,9 +398,7 @@ pub fn scene_estimation(
                         }
                         Mode::Improved => {
                             let e = est.improved(scene, &grid, src, p, cfg, s);
-                            let fb =
-                                e.real_rays as f64 > cfg.max_real_ray_share * hemi.n_cells() as f64;
-                            (e.items, e.holes, e.real_rays, fb)
+                            (e.items, e.holes, e.real_rays, e.abandoned)
                         }
                     };
                     let row = if fallback {

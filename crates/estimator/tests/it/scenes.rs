@@ -229,3 +229,38 @@ fn cube_improved_mode_is_within_two_percent_of_exact() {
     ));
     assert!(all < 0.02, "{all}");
 }
+
+/// Improved mode stops before casting its real rays when it would need more than its
+/// share, and leaves nothing that could pass for an estimate.
+#[test]
+fn improved_mode_abandons_over_its_real_ray_share() {
+    let scene = Scene::new(loft()).unwrap();
+    let grid = VoxelGrid::build(&scene, &GRID).unwrap();
+    let hemi = Hemisphere::new(HemisphereConfig::exact(45, 180)).unwrap();
+    let est = Estimator::new(&hemi);
+    let mut s = grid.new_scratch();
+    let (mut some_real, mut checked) = (0, 0);
+    for w in windows(&scene).iter().step_by(97) {
+        let src = SourceHemisphere::cast(&scene, &grid, &hemi, w.centre, false, &mut s);
+        for &p in &w.estimated {
+            let with = |share| EstimatorConfig {
+                max_real_ray_share: share,
+                ..config(Mode::Improved, HoleFill::RingNeighbour, LATERAL, false)
+            };
+            let all = est.improved(&scene, &grid, &src, p, &with(1.0), &mut s);
+            let none = est.improved(&scene, &grid, &src, p, &with(0.0), &mut s);
+            assert!(!all.abandoned);
+            assert_eq!(all.items.patch.len(), hemi.n_cells());
+            assert_eq!(none.real_rays, all.real_rays, "patch {p}");
+            assert_eq!(none.abandoned, all.real_rays > 0, "patch {p}");
+            if none.abandoned {
+                assert!(none.items.patch.is_empty() && none.items.dist.is_empty());
+                some_real += 1;
+            } else {
+                assert_eq!(none.items, all.items);
+            }
+            checked += 1;
+        }
+    }
+    assert!(some_real > 0 && some_real < checked, "{some_real} of {checked}");
+}
