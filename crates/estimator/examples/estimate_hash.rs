@@ -29,7 +29,11 @@ fn main() {
             ..HemisphereConfig::exact(res.0, res.1)
         })
         .unwrap();
-        for (name, desc) in [("loft", loft()), ("cube", cube(10)), ("cornell", cornell_box(CORNELL_PATCH_MM))] {
+        for (name, desc) in [
+            ("loft", loft()),
+            ("cube", cube(10)),
+            ("cornell", cornell_box(CORNELL_PATCH_MM)),
+        ] {
             let scene = Scene::new(desc).unwrap();
             let grid = VoxelGrid::build(
                 &scene,
@@ -46,12 +50,16 @@ fn main() {
             let est = Estimator::new(&hemi);
             let mut h = std::collections::hash_map::DefaultHasher::new();
             let mut hf = std::collections::hash_map::DefaultHasher::new();
-            let faithful = EstimatorConfig { mode: Mode::Faithful, ..config };
+            let faithful = EstimatorConfig {
+                mode: Mode::Faithful,
+                ..config
+            };
             let (mut real, mut n) = (0, 0);
             let t = std::time::Instant::now();
             for k in 0..12 {
                 let w = &all[(k * 509 + 100) % all.len()];
-                let src = SourceHemisphere::cast(&scene, &grid, &hemi, w.centre, false, &mut scratch);
+                let src =
+                    SourceHemisphere::cast(&scene, &grid, &hemi, w.centre, false, &mut scratch);
                 for &p in &w.estimated {
                     let e = est.improved(&scene, &grid, &src, p, &config, &mut scratch);
                     e.items.patch.hash(&mut h);

@@ -45,7 +45,9 @@ fn main() {
     let est = Estimator::new(&hemi);
     let mut cells = 0usize;
     let mut seconds = 0.0;
-    let windows_used: usize = std::env::var("WINDOWS").map(|w| w.parse().unwrap()).unwrap_or(4);
+    let windows_used: usize = std::env::var("WINDOWS")
+        .map(|w| w.parse().unwrap())
+        .unwrap_or(4);
     for k in 0..windows_used {
         let w = &all[(k * 509 + 100) % all.len()];
         let src = SourceHemisphere::cast(&scene, &grid, &hemi, w.centre, false, &mut scratch);
@@ -63,5 +65,8 @@ fn main() {
             cells += n;
         }
     }
-    println!("{cells} cells estimated, {:.3} ms per estimate", 1e3 * seconds / (cells as f64 / hemi.n_cells() as f64));
+    println!(
+        "{cells} cells estimated, {:.3} ms per estimate",
+        1e3 * seconds / (cells as f64 / hemi.n_cells() as f64)
+    );
 }

@@ -262,5 +262,8 @@ fn improved_mode_abandons_over_its_real_ray_share() {
             checked += 1;
         }
     }
-    assert!(some_real > 0 && some_real < checked, "{some_real} of {checked}");
+    assert!(
+        some_real > 0 && some_real < checked,
+        "{some_real} of {checked}"
+    );
 }
