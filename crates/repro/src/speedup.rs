@@ -304,6 +304,9 @@ fn run_method(
     Ok((rows, run))
 }
 
+/// Every way's run, and the matrices of the grid's rows and each estimator mode's.
+type Runs = (Vec<MethodRun>, Vec<(Way, FormFactors)>);
+
 /// Runs every [`Way`] on `patches`, in this order, in this process; the matrices of
 /// the exact (grid) rows and of each estimator mode's come back (on all patches).
 fn all_methods(
@@ -314,7 +317,7 @@ fn all_methods(
     estimated_ids: &[PatchId],
     stage: &str,
     progress: &(dyn Fn(&str, usize, usize) + Sync),
-) -> Result<(Vec<MethodRun>, Vec<(Way, FormFactors)>), Error> {
+) -> Result<Runs, Error> {
     let n = scene.patches().len();
     let full = patches.len() == n;
     let mut runs: Vec<MethodRun> = Vec::new();
