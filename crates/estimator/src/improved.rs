@@ -118,7 +118,18 @@ pub(crate) fn estimate_improved_with<C: RayCast>(
         }
         ring_runs.push(runs.len());
     }
-    HITS.with_borrow_mut(|hits| {
+    // (A fresh buffer if this thread's is in use: a caster that ran another estimate
+    // on this thread from inside `closest_hits_from`.)
+    HITS.with(|cell| {
+        let mut fresh;
+        let mut guard = cell.try_borrow_mut();
+        let hits: &mut NearestHits = match guard.as_deref_mut() {
+            Ok(h) => h,
+            Err(_) => {
+                fresh = NearestHits::default();
+                &mut fresh
+            }
+        };
         hits.begin(hemi, scene, own);
         let tests_before = hits.tests;
         let n = n_phi as i64;

@@ -11,7 +11,7 @@ pub const PLANARITY_TOLERANCE: f64 = 1e-4;
 /// Largest patch grid accepted on one polygon (cells, nu · nv).
 pub const MAX_CELLS_PER_POLYGON: u64 = 1 << 24;
 
-/// No front hit (see [`Polygon::front_hits_from`]).
+/// No patch: a marker for "no front hit" in per-cell patch arrays.
 pub const MISS: PatchId = PatchId::MAX;
 /// A clipped cell smaller than this fraction of a whole cell is no patch.
 const MIN_CELL_FRACTION: f64 = 1e-9;

@@ -34,8 +34,9 @@ const NONE: u32 = NO_HIT;
 /// the improved estimator tests the polygons guessed around each cell.
 #[derive(Clone, Debug, Default)]
 pub struct NearestHits {
-    /// Polygon whose frame `dx, dy, dz` are for, and the hemisphere they were made with.
-    dirs_for: Option<(PolygonId, usize, usize, u64)>,
+    /// The frame and normal (bits) `dx, dy, dz` and `forward` are for, and the
+    /// hemisphere (N_θ, N_φ, φ shift) they were made with.
+    dirs_for: Option<([u32; 12], usize, usize, u64)>,
     /// Local directions, by component (for the hemisphere in `dirs_for`).
     lx: Vec<f32>,
     ly: Vec<f32>,
@@ -43,8 +44,9 @@ pub struct NearestHits {
     dx: Vec<f32>,
     dy: Vec<f32>,
     dz: Vec<f32>,
-    /// Every direction leaves the polygon's plane forwards (as the grid checks it).
-    forward: bool,
+    /// Per ring: every direction leaves the polygon's plane forwards (as the grid checks
+    /// it for each ring's query).
+    forward: Vec<bool>,
     best_t: Vec<f32>,
     best_p: Vec<u32>,
     best_u: Vec<f32>,
@@ -137,18 +139,29 @@ impl Hemisphere {
             if id == own as usize {
                 continue;
             }
-            // The grid's culling: wholly behind the plane by more than the polygon's reach.
-            if s.hits.forward {
-                let reach = poly.reach() as f64;
-                if poly
-                    .vertices()
-                    .iter()
-                    .all(|v| (v.as_dvec3() - o64).dot(own_n) < -reach)
-                {
-                    continue;
-                }
-            }
             let terms = poly.origin_terms(o);
+            // The grid's culling, ring by ring as it queries them: a polygon wholly
+            // behind the plane by more than its reach is skipped in every ring whose
+            // rays all leave the plane forwards. (It should have no hits there; skipping
+            // exactly where the grid does keeps the bits the grid's even if it had.)
+            let reach = poly.reach() as f64;
+            let behind = poly
+                .vertices()
+                .iter()
+                .all(|v| (v.as_dvec3() - o64).dot(own_n) < -reach);
+            if behind {
+                if terms[0] != 0.0 && !terms[0].is_nan() {
+                    s.front[id] = terms[0] < 0.0;
+                }
+                let np = self.n_phi();
+                for ring in 0..self.n_theta() {
+                    if !s.hits.forward[ring] {
+                        s.hits
+                            .test(poly, id as u32, terms, ring * np..(ring + 1) * np);
+                    }
+                }
+                continue;
+            }
             let num = terms[0];
             // t = num / (n·d) > 0: front hits (n·d < 0) need num < 0, back hits num > 0,
             // and num = 0 gives none.
@@ -242,7 +255,7 @@ impl NearestHits {
     /// Starts a hemisphere of `hemi` on polygon `own` of `scene`: no hits yet; the cells'
     /// world directions are made for `own`'s frame (kept while `own` stays the same).
     pub fn begin(&mut self, hemi: &Hemisphere, scene: &Scene, own: PolygonId) {
-        hemi.prepare_dirs(&scene.polygons()[own as usize], own, self);
+        hemi.prepare_dirs(&scene.polygons()[own as usize], self);
         let n_cells = hemi.n_cells();
         self.best_t.clear();
         self.best_t.resize(n_cells, f32::INFINITY);
@@ -303,9 +316,14 @@ impl NearestHits {
 
 impl Hemisphere {
     /// World directions of the cells for `poly`'s frame, unless already there.
-    fn prepare_dirs(&self, poly: &Polygon, id: PolygonId, s: &mut NearestHits) {
+    fn prepare_dirs(&self, poly: &Polygon, s: &mut NearestHits) {
+        let f = poly.frame();
+        let mut frame = [0u32; 12];
+        for (k, v) in [f.t, f.b, f.n, poly.normal()].iter().enumerate() {
+            frame[3 * k..3 * k + 3].copy_from_slice(&v.to_array().map(f32::to_bits));
+        }
         let key = (
-            id,
+            frame,
             self.n_theta(),
             self.n_phi(),
             self.config().phi_shift.to_bits(),
@@ -322,33 +340,50 @@ impl Hemisphere {
         for v in [&mut s.dx, &mut s.dy, &mut s.dz] {
             v.resize(n_cells, 0.0);
         }
-        #[cfg(target_arch = "x86_64")]
-        if rad_core::has_avx2() {
-            // SAFETY: the CPU has AVX2.
-            s.forward = unsafe { world_dirs_avx2(poly, s) };
-            s.dirs_for = Some(key);
-            return;
+        s.forward.clear();
+        let n_phi = self.n_phi();
+        for ring in 0..self.n_theta() {
+            let cells = ring * n_phi..(ring + 1) * n_phi;
+            #[cfg(target_arch = "x86_64")]
+            let forward = if rad_core::has_avx2() {
+                // SAFETY: the CPU has AVX2.
+                unsafe { world_dirs_avx2(poly, s, cells) }
+            } else {
+                world_dirs(poly, s, cells)
+            };
+            #[cfg(not(target_arch = "x86_64"))]
+            let forward = world_dirs(poly, s, cells);
+            s.forward.push(forward);
         }
-        s.forward = world_dirs(poly, s);
         s.dirs_for = Some(key);
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn world_dirs_avx2(poly: &Polygon, s: &mut NearestHits) -> bool {
-    world_dirs(poly, s)
+unsafe fn world_dirs_avx2(poly: &Polygon, s: &mut NearestHits, cells: Range<usize>) -> bool {
+    world_dirs(poly, s, cells)
 }
 
-/// `Frame::world_from_local` of every cell's direction, component by component (the
+/// `Frame::world_from_local` of the cells' directions, component by component (the
 /// same sums in the same order, so the same bits); true if all leave the plane forwards.
 #[inline(always)]
-fn world_dirs(poly: &Polygon, s: &mut NearestHits) -> bool {
+fn world_dirs(poly: &Polygon, s: &mut NearestHits, cells: Range<usize>) -> bool {
     let f = poly.frame();
     let n = poly.normal();
-    let len = s.lx.len();
-    let (lx, ly, lz) = (&s.lx[..len], &s.ly[..len], &s.lz[..len]);
-    let (dx, dy, dz) = (&mut s.dx[..len], &mut s.dy[..len], &mut s.dz[..len]);
+    let (lx, ly, lz) = (
+        &s.lx[cells.clone()],
+        &s.ly[cells.clone()],
+        &s.lz[cells.clone()],
+    );
+    let len = lx.len();
+    let (ly, lz) = (&ly[..len], &lz[..len]);
+    let (dx, dy, dz) = (
+        &mut s.dx[cells.clone()],
+        &mut s.dy[cells.clone()],
+        &mut s.dz[cells],
+    );
+    let (dx, dy, dz) = (&mut dx[..len], &mut dy[..len], &mut dz[..len]);
     let mut forward = true;
     for k in 0..len {
         let (x, y, z) = (lx[k], ly[k], lz[k]);
@@ -491,11 +526,18 @@ fn region(poly: &Polygon, o: DVec3, num: f32, frame: [DVec3; 3]) -> Region {
     // grown past its edge tolerance (the tolerance reaches farthest at its sharpest
     // corner, eps / sin(α/2)).
     let (lo, hi) = padded_uv_box(poly);
+    // The grid's hits lie on the plane n·p = d, with (u, v) from the dual basis (du,
+    // dv ⊥ n): the point of parameters (u, v) there is o' + u e_u' + v e_v', with the
+    // edges projected onto the plane and o' the origin moved onto it (a vertex may lie
+    // off the plane within the planarity tolerance).
+    let n = poly.normal().as_dvec3();
     let (origin, eu, ev) = (
         poly.origin().as_dvec3(),
         poly.e_u().as_dvec3(),
         poly.e_v().as_dvec3(),
     );
+    let (eu, ev) = (eu - n * eu.dot(n), ev - n * ev.dot(n));
+    let origin = origin + n * (poly.plane_offset() as f64 - n.dot(origin));
     let corners = [
         (lo[0], lo[1]),
         (hi[0], lo[1]),

@@ -120,3 +120,141 @@ fn scan_tests_few_polygons_per_cell() {
         scene.polygons().len()
     );
 }
+
+/// A convex pentagon whose first and last edges are short (2 % of its size) and whose
+/// second vertex lies off the plane of the others (within the planarity tolerance): the
+/// grid meets its plane n·p = d, which (u, v) measured along those short edges leave
+/// far behind; the scan must bound the former. Placed by `frame` at `centre`.
+fn skewed_pentagon(
+    centre: glam::Vec3,
+    normal: glam::Vec3,
+    size: f32,
+    lift: f32,
+) -> rad_geometry::PolygonDesc {
+    let t = normal.any_orthonormal_vector();
+    let b = normal.cross(t);
+    let local = [
+        [0.0, 0.0, 0.0],
+        [0.02, 0.0, lift],
+        [1.0, 0.5, 0.0],
+        [0.5, 1.0, 0.0],
+        [0.0, 0.02, 0.0],
+    ];
+    rad_geometry::PolygonDesc {
+        name: "skewed".into(),
+        vertices: local
+            .iter()
+            .map(|[x, y, z]| centre + (t * (x - 0.4) + b * (y - 0.4) + normal * z) * size)
+            .collect(),
+        material: 0,
+        grid: rad_geometry::PatchGrid::Cells { nu: 3, nv: 3 },
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(40))]
+
+    #[test]
+    fn scan_matches_the_grid_on_polygons_off_their_plane(
+        desc in random_scene(6),
+        centre in (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0),
+        normal in rad_testkit::unit_vector(),
+        size in 1.0f32..3.0,
+        lift in prop_oneof![Just(1.5e-4f32), -1.5e-4f32..1.5e-4],
+        n_theta in 90u32..181,
+        n_phi in 360u32..721,
+        picks in proptest::collection::vec(any::<prop::sample::Index>(), 1..5),
+    ) {
+        let mut desc = desc;
+        let c = glam::Vec3::new(centre.0, centre.1, centre.2);
+        desc.polygons.push(skewed_pentagon(c, normal, size, lift));
+        let scene = Scene::new(desc);
+        prop_assume!(scene.is_ok());
+        let scene = scene.unwrap();
+        let hemi = Hemisphere::new(HemisphereConfig::exact(n_theta, n_phi)).unwrap();
+        let patches: Vec<u32> = picks.iter().map(|i| i.index(scene.patches().len()) as u32).collect();
+        prop_assert_eq!(compare(&scene, &hemi, &patches, 4.0), None);
+    }
+}
+
+/// One scratch over several scenes: polygon ids repeat, frames do not.
+#[test]
+fn a_scratch_moves_between_scenes() {
+    let hemi = Hemisphere::new(HemisphereConfig::exact(30, 120)).unwrap();
+    // The cube with its faces in another order: polygon 0 is another face.
+    let mut turned = cube(10);
+    turned.polygons.rotate_left(1);
+    let scenes = [cube(10), turned, loft()].map(|d| Scene::new(d).unwrap());
+    let n0 = |s: &Scene| s.polygons()[0].normal();
+    assert!(n0(&scenes[0]).dot(n0(&scenes[1])) < 0.5);
+    let mut shared = ScanScratch::default();
+    let (mut a, mut b) = (ItemBuffer::default(), ItemBuffer::default());
+    // Patch 5 of each scene lies on its polygon 0.
+    for scene in [&scenes[0], &scenes[1], &scenes[2], &scenes[0]] {
+        assert_eq!(scene.patches()[5].polygon, 0);
+        hemi.scan(scene, 5, &mut shared, &mut a);
+        hemi.scan(scene, 5, &mut ScanScratch::default(), &mut b);
+        assert_eq!(first_difference(&a, &b), None);
+    }
+}
+
+/// The pentagon above, as found by review (first and last edges 2 % of its size, its
+/// second vertex 1.5e-4 off the others' plane), seen from 300 small probe patches around
+/// it with random orientations: at 180 × 720 some cell centres fall where the polygon's
+/// plane and the plane of its short edges disagree by several milliradians.
+#[test]
+fn scan_matches_the_grid_around_a_pentagon_off_its_plane() {
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    let mut uniform = move |lo: f32, hi: f32| {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        lo + (hi - lo) * ((seed >> 40) as f32 / (1u64 << 24) as f32)
+    };
+    let mut polygons = vec![rad_geometry::PolygonDesc {
+        name: "pentagon".into(),
+        vertices: [
+            [0.0, 0.0, 0.0],
+            [0.02, 0.0, 1.5e-4],
+            [1.0, 0.5, 0.0],
+            [0.5, 1.0, 0.0],
+            [0.0, 0.02, 0.0],
+        ]
+        .map(glam::Vec3::from)
+        .to_vec(),
+        material: 0,
+        grid: rad_geometry::PatchGrid::Cells { nu: 2, nv: 2 },
+    }];
+    for k in 0..300 {
+        let side = if k % 2 == 0 { 1.0 } else { -1.0 };
+        let o = glam::Vec3::new(
+            uniform(-1.0, 2.0),
+            uniform(-1.0, 2.0),
+            side * uniform(0.05, 1.0),
+        );
+        let n =
+            glam::Vec3::new(uniform(-1.0, 1.0), uniform(-1.0, 1.0), uniform(-1.0, 1.0)).normalize();
+        let t = n.any_orthonormal_vector() * 0.005;
+        let b = n.cross(t);
+        polygons.push(rad_geometry::PolygonDesc {
+            name: format!("probe {k}"),
+            vertices: vec![o - t - b, o + t - b, o + t + b, o - t + b],
+            material: 0,
+            grid: rad_geometry::PatchGrid::Cells { nu: 1, nv: 1 },
+        });
+    }
+    let scene = Scene::new(SceneDesc {
+        materials: vec![rad_geometry::Material {
+            name: "grey".into(),
+            reflectance: rad_core::Rgb([0.5; 3]),
+            emission: rad_core::Rgb::BLACK,
+        }],
+        polygons,
+        camera: None,
+    })
+    .unwrap();
+    let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).unwrap();
+    let probes: Vec<u32> = (4..scene.patches().len() as u32).collect();
+    assert_eq!(probes.len(), 300);
+    assert_eq!(compare(&scene, &hemi, &probes, 4.0), None);
+}
