@@ -570,13 +570,8 @@ impl RayCast for VoxelGrid<'_> {
                 let (o, n) = (origin.as_dvec3(), n.as_dvec3());
                 for (p, poly) in self.scene.polygons().iter().enumerate() {
                     // Behind by more than the polygon's reach (its edge tolerance and
-                    // how far its vertices may lie off its plane): exactly unreachable.
-                    let reach = poly.reach() as f64;
-                    if poly
-                        .vertices()
-                        .iter()
-                        .all(|v| (v.as_dvec3() - o).dot(n) < -reach)
-                    {
+                    // how far its vertices may lie off its plane): unreachable.
+                    if poly.wholly_behind(o, n) {
                         scratch.stamps[p] = CULLED;
                         scratch.culled.push(p as u32);
                     }

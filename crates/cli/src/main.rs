@@ -390,7 +390,8 @@ fn form_factor_rows(
     caster: Caster,
 ) -> Result<Rows, String> {
     let (nt, np) = (hemi.n_theta(), hemi.n_phi());
-    let grid = VoxelGrid::build(scene, &default_grid()).map_err(|e| e.to_string())?;
+    // The voxel grid, for the ways that cast rays (not the scan).
+    let grid = || VoxelGrid::build(scene, &default_grid()).map_err(|e| e.to_string());
     // A bar when the job is long: over about 50 M rays.
     let rays = ids.len() as u64 * hemi.n_cells() as u64;
     let bar = if rays > 50_000_000 {
@@ -412,7 +413,7 @@ fn form_factor_rows(
             let progress = |n: usize| bar.set_position(n as u64);
             let rows = match caster {
                 Caster::Scan => compute_rows_scan(scene, hemi, ids, &progress),
-                Caster::Grid => compute_rows(scene, &grid, hemi, ids, &progress),
+                Caster::Grid => compute_rows(scene, &grid()?, hemi, ids, &progress),
             }
             .map_err(|e| e.to_string())?;
             let n = rows.len();
@@ -427,7 +428,7 @@ fn form_factor_rows(
             bar.set_length(windows(scene).len() as u64);
             bar.set_prefix("windows");
             bar.set_message(format!("estimated form factors {nt}x{np}"));
-            let (rows, stats) = estimate_rows(scene, &grid, hemi, &config, ids, &|n| {
+            let (rows, stats) = estimate_rows(scene, &grid()?, hemi, &config, ids, &|n| {
                 bar.set_position(n as u64)
             })
             .map_err(|e| e.to_string())?;

@@ -8,7 +8,7 @@ use crate::source::SourceHemisphere;
 use crate::Error;
 use rad_core::{PatchId, RayCast};
 use rad_geometry::Scene;
-use rad_hemisphere::{Hemisphere, ItemBuffer, Row, RowAccumulator};
+use rad_hemisphere::{Hemisphere, Row, RowAccumulator};
 use rayon::prelude::*;
 use std::collections::HashMap;
 
@@ -81,14 +81,8 @@ pub fn estimate_rows<C: RayCast>(
     let per_window: Vec<Vec<(PatchId, EstimatedRow, u64, f64)>> = todo
         .par_iter()
         .map_init(
-            || {
-                (
-                    caster.new_scratch(),
-                    RowAccumulator::new(n_patches),
-                    ItemBuffer::default(),
-                )
-            },
-            |(scratch, acc, buf), w| {
+            || (caster.new_scratch(), RowAccumulator::new(n_patches)),
+            |(scratch, acc), w| {
                 let mut out = Vec::new();
                 let clock = std::time::Instant::now();
                 let src = SourceHemisphere::cast(
@@ -125,13 +119,8 @@ pub fn estimate_rows<C: RayCast>(
                             (e.items, e.holes, 0, 0, false)
                         }
                         Mode::Improved => {
-                            let e = est.improved(scene, caster, &src, p, config, scratch);
-                            if e.abandoned {
-                                hemi.cast(scene, caster, p, scratch, buf);
-                                (std::mem::take(buf), e.holes, e.real_rays, e.tests, true)
-                            } else {
-                                (e.items, e.holes, e.real_rays, e.tests, false)
-                            }
+                            let e = est.improved_or_cast(scene, caster, &src, p, config, scratch);
+                            (e.items, e.holes, e.real_rays, e.tests, e.abandoned)
                         }
                     };
                     let row = hemi.row_from_items(p, &items, acc);

@@ -6,7 +6,7 @@ use crate::faithful::{fill_holes, motion, splat, CellTrig, Estimator, HOLE};
 use crate::source::SourceHemisphere;
 use rad_core::{PatchId, RayCast};
 use rad_geometry::Scene;
-use rad_hemisphere::{Hemisphere, ItemBuffer, NearestHits, BACK, ESCAPED, NO_HIT};
+use rad_hemisphere::{Hemisphere, ItemBuffer, NearestHits, BACK, ESCAPED};
 
 /// An estimated hemisphere from the improved mode.
 #[derive(Clone, Debug, Default)]
@@ -18,8 +18,9 @@ pub struct ImprovedEstimate {
     /// resolved by a real ray.
     pub real_rays: usize,
     /// The estimate needed real rays for over `max_real_ray_share` of its cells and
-    /// stopped before casting them: `items` is empty, and the patch is to be cast
-    /// exactly (`real_rays` counts the rays it would have needed).
+    /// stopped before casting them (`real_rays` counts the rays it would have needed):
+    /// `items` is empty from [`Estimator::improved`], and the patch's exact hemisphere
+    /// from [`Estimator::improved_or_cast`].
     pub abandoned: bool,
     /// Ray–polygon tests made (without the real rays' own).
     pub tests: usize,
@@ -48,6 +49,26 @@ impl Estimator<'_> {
         estimate_improved_with(
             scene, caster, self.hemi, &self.trig, src, to, config, scratch,
         )
+    }
+}
+
+impl Estimator<'_> {
+    /// [`Estimator::improved`], or, when that is abandoned, the patch's exact hemisphere
+    /// cast through `caster` (what the schedule does, and what the mode costs).
+    pub fn improved_or_cast<C: RayCast>(
+        &self,
+        scene: &Scene,
+        caster: &C,
+        src: &SourceHemisphere,
+        to: PatchId,
+        config: &EstimatorConfig,
+        scratch: &mut C::Scratch,
+    ) -> ImprovedEstimate {
+        let mut e = self.improved(scene, caster, src, to, config, scratch);
+        if e.abandoned {
+            self.hemi.cast(scene, caster, to, scratch, &mut e.items);
+        }
+        e
     }
 }
 
@@ -175,28 +196,16 @@ pub(crate) fn estimate_improved_with<C: RayCast>(
         // The nearest hit if it is a front one (runs of cells with one polygon looked up
         // together); otherwise (a back face nearest, or no guess hit) a real ray.
         let n_cells = hemi.n_cells();
-        let (best, (bt, bu, bv)) = (hits.polygons(), hits.t_u_v());
         let (patch, dist) = (&mut out.items.patch, &mut out.items.dist);
         patch.clear();
         patch.resize(n_cells, ESCAPED);
         dist.clear();
         dist.resize(n_cells, f32::INFINITY);
         let mut real = Vec::new();
-        let mut k = 0;
-        while k < n_cells {
-            let p = best[k];
-            let mut end = k + 1;
-            while end < n_cells && best[end] == p {
-                end += 1;
-            }
-            if p != NO_HIT && terms_of[p as usize][0] < 0.0 {
-                polygons[p as usize].patches_at(&bu[k..end], &bv[k..end], &mut patch[k..end]);
-                dist[k..end].copy_from_slice(&bt[k..end]);
-            } else {
-                real.extend(k..end);
-            }
-            k = end;
-        }
+        let front = |p: u32| terms_of[p as usize][0] < 0.0;
+        hits.items(polygons, front, patch, dist, |cells, _, _| {
+            real.extend(cells)
+        });
         out.real_rays = real.len();
         if real.len() as f64 > config.max_real_ray_share * n_cells as f64 {
             out.abandoned = true;

@@ -9,5 +9,5 @@ mod scene;
 pub mod scenes;
 
 pub use error::{Error, PolygonProblem};
-pub use polygon::{Patch, Polygon, PolygonHit, MAX_CELLS_PER_POLYGON, MISS, PLANARITY_TOLERANCE};
+pub use polygon::{Patch, Polygon, PolygonHit, MAX_CELLS_PER_POLYGON, PLANARITY_TOLERANCE};
 pub use scene::{Camera, Material, PatchGrid, PolygonDesc, Scene, SceneDesc, MAX_PATCHES};

@@ -11,8 +11,6 @@ pub const PLANARITY_TOLERANCE: f64 = 1e-4;
 /// Largest patch grid accepted on one polygon (cells, nu · nv).
 pub const MAX_CELLS_PER_POLYGON: u64 = 1 << 24;
 
-/// No patch: a marker for "no front hit" in per-cell patch arrays.
-pub const MISS: PatchId = PatchId::MAX;
 /// A clipped cell smaller than this fraction of a whole cell is no patch.
 const MIN_CELL_FRACTION: f64 = 1e-9;
 
@@ -462,6 +460,17 @@ impl Polygon {
     /// this from the convex hull of its vertices.
     pub fn reach(&self) -> f32 {
         self.eps + self.off_plane
+    }
+
+    /// True when every vertex lies behind the plane through `o` with normal `n` by more
+    /// than [`Polygon::reach`]: rays leaving that plane forwards from `o` cannot hit it.
+    /// The voxel grid culls such polygons for a hemisphere's rays, and the polygon scan
+    /// skips exactly the same ones.
+    pub fn wholly_behind(&self, o: glam::DVec3, n: glam::DVec3) -> bool {
+        let reach = self.reach() as f64;
+        self.vertices
+            .iter()
+            .all(|v| (v.as_dvec3() - o).dot(n) < -reach)
     }
 
     /// Plane offset `d` with the plane `normal · p = d`.

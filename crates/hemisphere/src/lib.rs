@@ -14,7 +14,7 @@ mod scan;
 pub use cells::{delta_form_factors, DeltaRule, Hemisphere, HemisphereConfig, MAX_CELLS};
 pub use lambert::point_to_polygon_form_factor;
 pub use row::{compute_rows, compute_rows_scan, ItemBuffer, Row, RowAccumulator, BACK, ESCAPED};
-pub use scan::{CellHit, NearestHits, ScanScratch, ScanStats, NO_HIT};
+pub use scan::{NearestHits, ScanScratch, ScanStats, NO_HIT};
 
 /// Errors from setting up a hemisphere.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

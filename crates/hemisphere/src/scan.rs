@@ -23,9 +23,8 @@ use rad_geometry::{Polygon, Scene};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::ops::Range;
 
-/// No polygon yet: the cell's ray has met nothing (in [`NearestHits::polygons`]).
+/// No polygon yet: the cell's ray has met nothing (see [`NearestHits::items`]).
 pub const NO_HIT: u32 = u32::MAX;
-const NONE: u32 = NO_HIT;
 
 /// The nearest hit of every cell's ray of one hemisphere, against polygons tested on
 /// chosen cells: the voxel grid's ray–polygon test, term for term (so the same bits),
@@ -57,21 +56,10 @@ pub struct NearestHits {
     pub tests: u64,
 }
 
-/// One cell's nearest hit.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CellHit {
-    pub polygon: PolygonId,
-    pub t: f32,
-    pub u: f32,
-    pub v: f32,
-}
-
 /// Per-thread working memory of [`Hemisphere::scan`].
 #[derive(Clone, Debug, Default)]
 pub struct ScanScratch {
     hits: NearestHits,
-    /// Per polygon: its hits are front hits (its plane term is negative).
-    front: Vec<bool>,
     /// Work counts so far.
     pub stats: ScanStats,
 }
@@ -129,8 +117,6 @@ impl Hemisphere {
         scratch.hits.begin(self, scene, own);
         let s = scratch;
         s.stats.hemispheres += 1;
-        s.front.clear();
-        s.front.resize(polygons.len(), false);
         let o = p.center;
         let frame = polygons[own as usize].frame();
         let own_n = polygons[own as usize].normal().as_dvec3();
@@ -144,15 +130,7 @@ impl Hemisphere {
             // behind the plane by more than its reach is skipped in every ring whose
             // rays all leave the plane forwards. (It should have no hits there; skipping
             // exactly where the grid does keeps the bits the grid's even if it had.)
-            let reach = poly.reach() as f64;
-            let behind = poly
-                .vertices()
-                .iter()
-                .all(|v| (v.as_dvec3() - o64).dot(own_n) < -reach);
-            if behind {
-                if terms[0] != 0.0 && !terms[0].is_nan() {
-                    s.front[id] = terms[0] < 0.0;
-                }
+            if poly.wholly_behind(o64, own_n) {
                 let np = self.n_phi();
                 for ring in 0..self.n_theta() {
                     if !s.hits.forward[ring] {
@@ -168,7 +146,6 @@ impl Hemisphere {
             if num == 0.0 || num.is_nan() {
                 continue;
             }
-            s.front[id] = num < 0.0;
             let region = region(
                 poly,
                 o64,
@@ -222,45 +199,30 @@ impl Hemisphere {
         buf.patch.reserve(n_cells);
         buf.dist.reserve(n_cells);
         s.stats.tests += s.hits.tests - tests_before;
-        // Runs of cells that met the same polygon share its lookups.
-        let h = &s.hits;
-        let mut k = 0;
-        while k < n_cells {
-            let bp = h.best_p[k];
-            let mut end = k + 1;
-            while end < n_cells && h.best_p[end] == bp {
-                end += 1;
-            }
-            if bp == NONE {
-                buf.patch.extend(std::iter::repeat_n(ESCAPED, end - k));
-                buf.dist.extend(std::iter::repeat_n(f32::INFINITY, end - k));
-            } else if s.front[bp as usize] {
-                buf.patch.resize(end, 0);
-                polygons[bp as usize].patches_at(
-                    &h.best_u[k..end],
-                    &h.best_v[k..end],
-                    &mut buf.patch[k..end],
-                );
-                buf.dist.extend_from_slice(&h.best_t[k..end]);
-            } else {
-                buf.patch.extend(std::iter::repeat_n(BACK, end - k));
-                buf.dist.extend_from_slice(&h.best_t[k..end]);
-            }
-            k = end;
-        }
+        buf.patch.resize(n_cells, 0);
+        buf.dist.resize(n_cells, 0.0);
+        // Front hits need a negative plane term (see above).
+        let front = |p: PolygonId| polygons[p as usize].origin_terms(o)[0] < 0.0;
+        s.hits.items(
+            polygons,
+            front,
+            &mut buf.patch,
+            &mut buf.dist,
+            |_, p, ids| ids.fill(if p == NO_HIT { ESCAPED } else { BACK }),
+        );
     }
 }
 
 impl NearestHits {
     /// Starts a hemisphere of `hemi` on polygon `own` of `scene`: no hits yet; the cells'
-    /// world directions are made for `own`'s frame (kept while `own` stays the same).
+    /// world directions are made for `own`'s frame (kept while the frame stays the same).
     pub fn begin(&mut self, hemi: &Hemisphere, scene: &Scene, own: PolygonId) {
         hemi.prepare_dirs(&scene.polygons()[own as usize], self);
         let n_cells = hemi.n_cells();
         self.best_t.clear();
         self.best_t.resize(n_cells, f32::INFINITY);
         self.best_p.clear();
-        self.best_p.resize(n_cells, NONE);
+        self.best_p.resize(n_cells, NO_HIT);
         self.best_u.resize(n_cells, 0.0);
         self.best_v.resize(n_cells, 0.0);
     }
@@ -284,26 +246,39 @@ impl NearestHits {
         test_span(poly, &h, self, cells.start, cells.end);
     }
 
-    /// The nearest hit of cell `c`'s ray so far.
-    #[inline]
-    pub fn hit(&self, c: usize) -> Option<CellHit> {
-        let p = self.best_p[c];
-        (p != NONE).then(|| CellHit {
-            polygon: p,
-            t: self.best_t[c],
-            u: self.best_u[c],
-            v: self.best_v[c],
-        })
-    }
-
-    /// Per cell: the polygon of the nearest hit so far, or [`NO_HIT`].
-    pub fn polygons(&self) -> &[PolygonId] {
-        &self.best_p
-    }
-
-    /// Per cell: the nearest hit's distance and (u, v) (meaningless where no hit).
-    pub fn t_u_v(&self) -> (&[f32], &[f32], &[f32]) {
-        (&self.best_t, &self.best_u, &self.best_v)
+    /// Writes the item buffer of the hits so far: every cell's distance (∞ where nothing
+    /// was hit), and the patch of each run of cells whose nearest hit is on one polygon
+    /// `p` with `front(p)` (looked up together, `Polygon::patches_at`); the other runs
+    /// (no hit: `p` is [`NO_HIT`]; or a back face) go to `other(cells, p, their ids)`.
+    pub fn items(
+        &self,
+        polygons: &[Polygon],
+        front: impl Fn(PolygonId) -> bool,
+        patch: &mut [PatchId],
+        dist: &mut [f32],
+        mut other: impl FnMut(Range<usize>, PolygonId, &mut [PatchId]),
+    ) {
+        let n = self.best_p.len();
+        assert!(patch.len() == n && dist.len() == n, "one entry per cell");
+        dist.copy_from_slice(&self.best_t);
+        let mut k = 0;
+        while k < n {
+            let p = self.best_p[k];
+            let mut end = k + 1;
+            while end < n && self.best_p[end] == p {
+                end += 1;
+            }
+            if p != NO_HIT && front(p) {
+                polygons[p as usize].patches_at(
+                    &self.best_u[k..end],
+                    &self.best_v[k..end],
+                    &mut patch[k..end],
+                );
+            } else {
+                other(k..end, p, &mut patch[k..end]);
+            }
+            k = end;
+        }
     }
 
     /// The world direction of cell `c`'s ray (as [`rad_core::Frame::world_from_local`]
@@ -604,10 +579,7 @@ fn region(poly: &Polygon, o: DVec3, num: f32, frame: [DVec3; 3]) -> Region {
         };
     }
     // θ is least at a vertex or where an edge's great circle comes nearest the pole.
-    let mut theta_lo = dirs
-        .iter()
-        .map(|&d| theta_of(d))
-        .fold(FRAC_PI_2 * 2.0, f64::min);
+    let mut theta_lo = dirs.iter().map(|&d| theta_of(d)).fold(PI, f64::min);
     for k in 0..dirs.len() {
         let (a, b) = (dirs[k], dirs[(k + 1) % dirs.len()]);
         let m = a.cross(b);

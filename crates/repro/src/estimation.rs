@@ -175,10 +175,7 @@ pub fn timing(
                 tf.push(t.elapsed().as_secs_f64());
                 // An abandoned estimate costs its exact cast too, as in the schedule.
                 let t = Instant::now();
-                let e = est.improved(scene, &grid, &src, p, &improved, &mut s);
-                if e.abandoned {
-                    hemi.cast(scene, &grid, p, &mut s, &mut buf);
-                }
+                let e = est.improved_or_cast(scene, &grid, &src, p, &improved, &mut s);
                 real += std::hint::black_box(e).real_rays;
                 ti.push(t.elapsed().as_secs_f64());
             }
