@@ -6,8 +6,8 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_estimator::{
-    windows, Estimator, EstimatorConfig, HoleFill, Mode, Reprojection, SourceHemisphere,
-    ThresholdTest,
+    windows, Estimate, Estimator, EstimatorConfig, HoleFill, ImprovedEstimate, Mode, Reprojection,
+    SourceHemisphere, ThresholdTest,
 };
 use rad_geometry::scenes::{cube, loft};
 use rad_geometry::Scene;
@@ -71,13 +71,16 @@ fn bench(c: &mut Criterion) {
                 })
             },
         );
+        // Output buffers reused, as the schedule reuses them (and as `buf` is).
+        let (mut fe, mut ie) = (Estimate::default(), ImprovedEstimate::default());
         let faithful = config(Mode::Faithful);
         group.bench_function(
             BenchmarkId::from_parameter(format!("estimated/faithful/{name}/180x720")),
             |b| {
                 b.iter(|| {
                     k = (k + 1) % pairs.len();
-                    black_box(est.faithful(&scene, &sources[pairs[k].0], pairs[k].1, &faithful));
+                    est.faithful_into(&scene, &sources[pairs[k].0], pairs[k].1, &faithful, &mut fe);
+                    black_box(&fe);
                 })
             },
         );
@@ -89,14 +92,16 @@ fn bench(c: &mut Criterion) {
                     k = (k + 1) % pairs.len();
                     // An abandoned estimate (too many real rays) is cast exactly, as
                     // the schedule does: that is part of the mode's cost.
-                    black_box(est.improved_or_cast(
+                    est.improved_or_cast_into(
                         &scene,
                         &grid,
                         &sources[pairs[k].0],
                         pairs[k].1,
                         &improved,
                         &mut scratch,
-                    ));
+                        &mut ie,
+                    );
+                    black_box(&ie);
                 })
             },
         );

@@ -66,6 +66,7 @@ fn main() {
                     for d in &e.items.dist {
                         d.to_bits().hash(&mut h);
                     }
+                    e.holes.hash(&mut h);
                     real += e.real_rays;
                     n += 1;
                     let f = est.faithful(&scene, &src, p, &faithful);

@@ -48,18 +48,21 @@ fn main() {
     let windows_used: usize = std::env::var("WINDOWS")
         .map(|w| w.parse().unwrap())
         .unwrap_or(4);
+    let (mut faithful, mut improved) = Default::default();
     for k in 0..windows_used {
         let w = &all[(k * 509 + 100) % all.len()];
         let src = SourceHemisphere::cast(&scene, &grid, &hemi, w.centre, false, &mut scratch);
         for &p in &w.estimated {
             let t = std::time::Instant::now();
             let n = match mode {
-                Mode::Faithful => est.faithful(&scene, &src, p, &config).items.patch.len(),
-                Mode::Improved => est
-                    .improved(&scene, &grid, &src, p, &config, &mut scratch)
-                    .items
-                    .patch
-                    .len(),
+                Mode::Faithful => {
+                    est.faithful_into(&scene, &src, p, &config, &mut faithful);
+                    faithful.items.patch.len()
+                }
+                Mode::Improved => {
+                    est.improved_into(&scene, &grid, &src, p, &config, &mut scratch, &mut improved);
+                    improved.items.patch.len()
+                }
             };
             seconds += t.elapsed().as_secs_f64();
             cells += n;

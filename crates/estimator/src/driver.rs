@@ -2,7 +2,8 @@
 //! estimated ones elsewhere, in parallel and deterministically.
 
 use crate::config::{EstimatorConfig, Mode};
-use crate::faithful::Estimator;
+use crate::faithful::{Estimate, Estimator};
+use crate::improved::ImprovedEstimate;
 use crate::schedule::windows;
 use crate::source::SourceHemisphere;
 use crate::Error;
@@ -81,8 +82,15 @@ pub fn estimate_rows<C: RayCast>(
     let per_window: Vec<Vec<(PatchId, EstimatedRow, u64, f64)>> = todo
         .par_iter()
         .map_init(
-            || (caster.new_scratch(), RowAccumulator::new(n_patches)),
-            |(scratch, acc), w| {
+            || {
+                (
+                    caster.new_scratch(),
+                    RowAccumulator::new(n_patches),
+                    Estimate::default(),
+                    ImprovedEstimate::default(),
+                )
+            },
+            |(scratch, acc, faithful, improved), w| {
                 let mut out = Vec::new();
                 let clock = std::time::Instant::now();
                 let src = SourceHemisphere::cast(
@@ -115,15 +123,16 @@ pub fn estimate_rows<C: RayCast>(
                     let clock = std::time::Instant::now();
                     let (items, holes, real_rays, tests, fallback) = match config.mode {
                         Mode::Faithful => {
-                            let e = est.faithful(scene, &src, p, config);
-                            (e.items, e.holes, 0, 0, false)
+                            est.faithful_into(scene, &src, p, config, faithful);
+                            (&faithful.items, faithful.holes, 0, 0, false)
                         }
                         Mode::Improved => {
-                            let e = est.improved_or_cast(scene, caster, &src, p, config, scratch);
-                            (e.items, e.holes, e.real_rays, e.tests, e.abandoned)
+                            let e = &mut *improved;
+                            est.improved_or_cast_into(scene, caster, &src, p, config, scratch, e);
+                            (&e.items, e.holes, e.real_rays, e.tests, e.abandoned)
                         }
                     };
-                    let row = hemi.row_from_items(p, &items, acc);
+                    let row = hemi.row_from_items(p, items, acc);
                     let source = if fallback {
                         Source::ExactFallback { from: w.centre }
                     } else {

@@ -234,8 +234,18 @@ struct RingOut<'a> {
 /// θ index `i + ½ − (cosθ a_j − sinθ d_z) / (R Δθ)`, φ index `j + ½ − b_j / (R sinθ Δφ)`
 /// (a point that fails the threshold test, crosses the pole or moves over half a turn
 /// is marked `EXACT_PATH`); and the exact path's terms, `q = R ω − d`, for every point.
+///
+/// With `ROUGH`, `dest` and `dist2` get each point's final cell and squared distance
+/// (the rough cell on the exact path; a point at infinity stays in cell `ring + j`) and
+/// nothing else is written.
 #[inline(always)]
-fn ring_pass_body(r: &[f32], t: &SectorTerms, p: &RingParams, out: RingOut) {
+fn ring_pass_body<const ROUGH: bool>(
+    r: &[f32],
+    t: &SectorTerms,
+    p: &RingParams,
+    ring: u32,
+    out: RingOut,
+) {
     let n = p.n;
     let (r, ka, kb, jc, a, cp, sp) = (
         &r[..n],
@@ -246,16 +256,14 @@ fn ring_pass_body(r: &[f32], t: &SectorTerms, p: &RingParams, out: RingOut) {
         &t.cp[..n],
         &t.sp[..n],
     );
-    let rough = &mut out.rough[..n];
-    let sure = &mut out.sure[..n];
-    let (dest, dist2, c2s, xs) = (
-        &mut out.dest[..n],
-        &mut out.dist2[..n],
-        &mut out.c2[..n],
-        &mut out.x[..n],
-    );
+    let (dest, dist2) = (&mut out.dest[..n], &mut out.dist2[..n]);
+    // (Empty unless written: only the exact path's corrections read them.)
+    let m = if ROUGH { 0 } else { n };
+    let rough = &mut out.rough[..m];
+    let sure = &mut out.sure[..m];
+    let (c2s, xs) = (&mut out.c2[..m], &mut out.x[..m]);
     let [q0s, q1s, q2s] = out.q;
-    let (q0s, q1s, q2s) = (&mut q0s[..n], &mut q1s[..n], &mut q2s[..n]);
+    let (q0s, q1s, q2s) = (&mut q0s[..m], &mut q1s[..m], &mut q2s[..m]);
     let (nf, ntf) = (n as f32, p.n_theta as f32);
     let d = p.d;
     for j in 0..n {
@@ -282,9 +290,7 @@ fn ring_pass_body(r: &[f32], t: &SectorTerms, p: &RingParams, out: RingOut) {
         let q1 = rs * sp[j] - d[1];
         let q2 = r * p.ct - d[2];
         let r2 = q0 * q0 + q1 * q1 + q2 * q2;
-        c2s[j] = q2 * q2 / r2;
         let x = atan2_approx(q1, q0) * p.inv_d_phi - p.shift;
-        xs[j] = x;
         // Rough cell: θ = atan2(|q_xy|, q_z), sector from x (wrapped once each way).
         let th = atan2_approx((q0 * q0 + q1 * q1).sqrt(), q2) * p.inv_d_theta;
         let th_c = th.max(0.0).min(ntf - 1.0);
@@ -294,6 +300,23 @@ fn ring_pass_body(r: &[f32], t: &SectorTerms, p: &RingParams, out: RingOut) {
         let mut rl = unsafe { x_c.to_int_unchecked::<i32>() } - n as i32;
         rl += if rl < 0 { n as i32 } else { 0 };
         rl -= if rl >= n as i32 { n as i32 } else { 0 };
+        let rough_cell = if q2 > 0.0 {
+            (rk as u32).wrapping_mul(n as u32).wrapping_add(rl as u32)
+        } else {
+            NOWHERE
+        };
+        let first_order = if below { NOWHERE } else { cell };
+        let d2 = if ok { r1 * r1 } else { r2 };
+        if ROUGH {
+            let finite = r.is_finite();
+            dest[j] = match (ok, finite) {
+                (true, _) => first_order,
+                (false, true) => rough_cell,
+                (false, false) => ring + j as u32,
+            };
+            dist2[j] = if !ok && !finite { f32::INFINITY } else { d2 };
+            continue;
+        }
         let (fk, fl) = (th_c - rk as f32, x_c - (x_c as i32) as f32);
         sure[j] = p.fast
             & (fk > p.margin_k)
@@ -301,22 +324,14 @@ fn ring_pass_body(r: &[f32], t: &SectorTerms, p: &RingParams, out: RingOut) {
             & (fl > p.margin_l)
             & (fl < 1.0 - p.margin_l)
             & (th < ntf - 1.0);
-        rough[j] = if q2 > 0.0 {
-            (rk as u32).wrapping_mul(n as u32).wrapping_add(rl as u32)
-        } else {
-            NOWHERE
-        };
+        rough[j] = rough_cell;
+        c2s[j] = q2 * q2 / r2;
+        xs[j] = x;
         q0s[j] = q0;
         q1s[j] = q1;
         q2s[j] = q2;
-        dest[j] = if !ok {
-            EXACT_PATH
-        } else if below {
-            NOWHERE
-        } else {
-            cell
-        };
-        dist2[j] = if ok { r1 * r1 } else { r2 };
+        dest[j] = if ok { first_order } else { EXACT_PATH };
+        dist2[j] = d2;
     }
 }
 
@@ -325,18 +340,31 @@ fn ring_pass_body(r: &[f32], t: &SectorTerms, p: &RingParams, out: RingOut) {
 /// answers as the baseline build.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn ring_pass_avx2(r: &[f32], t: &SectorTerms, p: &RingParams, out: RingOut) {
-    ring_pass_body(r, t, p, out)
+unsafe fn ring_pass_avx2<const ROUGH: bool>(
+    r: &[f32],
+    t: &SectorTerms,
+    p: &RingParams,
+    ring: u32,
+    out: RingOut,
+) {
+    ring_pass_body::<ROUGH>(r, t, p, ring, out)
 }
 
-fn ring_pass(avx2: bool, r: &[f32], t: &SectorTerms, p: &RingParams, out: RingOut) {
+fn ring_pass<const ROUGH: bool>(
+    avx2: bool,
+    r: &[f32],
+    t: &SectorTerms,
+    p: &RingParams,
+    ring: u32,
+    out: RingOut,
+) {
     #[cfg(target_arch = "x86_64")]
     if avx2 {
         // SAFETY: the caller checked that the CPU has AVX2.
-        return unsafe { ring_pass_avx2(r, t, p, out) };
+        return unsafe { ring_pass_avx2::<ROUGH>(r, t, p, ring, out) };
     }
     let _ = avx2;
-    ring_pass_body(r, t, p, out)
+    ring_pass_body::<ROUGH>(r, t, p, ring, out)
 }
 
 /// The motion from `from`'s centre to `to`'s, in their polygon's frame.
@@ -351,8 +379,9 @@ pub(crate) fn motion(scene: &Scene, from: PatchId, to: PatchId) -> Motion {
 }
 
 /// Splats every point of `src` (and its boundary lists) into `(ids, zbuf)` as seen
-/// from C1 + `m`, the nearest winning (the first writer on ties); `value(id)` is what a
-/// cell records. Points at infinity (escaped rays) do not move.
+/// from C1 + `m`, the nearest winning (the first writer on ties). A cell records
+/// `values[c]` for H1's cell `c`, and `value(id)` for a boundary-list entry `id`.
+/// Points at infinity (escaped rays) do not move.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn splat(
     hemi: &Hemisphere,
@@ -361,6 +390,7 @@ pub(crate) fn splat(
     m: &Motion,
     config: &EstimatorConfig,
     rough: bool,
+    values: &[PatchId],
     value: impl Fn(PatchId) -> PatchId,
     ids: &mut Vec<PatchId>,
     zbuf: &mut Vec<f32>,
@@ -397,7 +427,6 @@ pub(crate) fn splat(
     let (mut c2s, mut xs) = (vec![0.0f32; n_phi], vec![0.0f32; n_phi]);
     let mut roughs = vec![NOWHERE; n_phi];
     let mut sures = vec![false; n_phi];
-    let (mut fin_cell, mut fin_r2) = (vec![NOWHERE; n_phi], vec![0.0f32; n_phi]);
     let project = |i: usize, j: usize, r: f32| -> (u32, f32) {
         let (st, ct) = (trig.st[i], trig.ct[i]);
         let far_scale = if lateral {
@@ -434,12 +463,13 @@ pub(crate) fn splat(
             (trig.cell_of_vector(q, r2).map_or(NOWHERE, |c| c as u32), r2)
         }
     };
+    // `id` is what the cell records.
     let mut put = |cell: u32, r2: f32, id: PatchId| {
         if cell != NOWHERE {
             let cell = cell as usize;
             if r2 < zbuf[cell] || (ids[cell] == HOLE && r2 == f32::INFINITY) {
                 zbuf[cell] = r2;
-                ids[cell] = value(id);
+                ids[cell] = id;
             }
         }
     };
@@ -482,23 +512,30 @@ pub(crate) fn splat(
             margin_k: EDGE_MARGIN * trig.inv_d_theta,
             margin_l: EDGE_MARGIN * trig.inv_d_phi,
         };
-        ring_pass(
-            avx2,
-            &src.items.dist[ring..ring + n_phi],
-            &terms,
-            &params,
-            RingOut {
-                dest: &mut dest,
-                rough: &mut roughs,
-                sure: &mut sures,
-                dist2: &mut dist2,
-                q: [&mut q0s, &mut q1s, &mut q2s],
-                c2: &mut c2s,
-                x: &mut xs,
-            },
-        );
-        // Equal-length slices of the ring (no bounds checks in the loop).
+        let out = RingOut {
+            dest: &mut dest,
+            rough: &mut roughs,
+            sure: &mut sures,
+            dist2: &mut dist2,
+            q: [&mut q0s, &mut q1s, &mut q2s],
+            c2: &mut c2s,
+            x: &mut xs,
+        };
+        let r = &src.items.dist[ring..ring + n_phi];
         let n = n_phi;
+        let (src_values, src_dist) = (&values[ring..ring + n], &src.items.dist[ring..ring + n]);
+        if rough && !has_lists {
+            // The rough destinations need no edge corrections: every point's cell and
+            // distance from the branch-free pass, then only the z-buffered writes.
+            ring_pass::<true>(avx2, r, &terms, &params, ring as u32, out);
+            let (dest, dist2) = (&dest[..n], &dist2[..n]);
+            for j in 0..n {
+                put(dest[j], dist2[j], src_values[j]);
+            }
+            continue;
+        }
+        ring_pass::<false>(avx2, r, &terms, &params, ring as u32, out);
+        // Equal-length slices of the ring (no bounds checks in the loop).
         let (roughs, sures) = (&roughs[..n], &sures[..n]);
         let (dest, dist2, q0s, q1s, q2s, c2s, xs) = (
             &dest[..n],
@@ -509,35 +546,6 @@ pub(crate) fn splat(
             &c2s[..n],
             &xs[..n],
         );
-        let (src_patch, src_dist) = (
-            &src.items.patch[ring..ring + n],
-            &src.items.dist[ring..ring + n],
-        );
-        if rough && !has_lists {
-            // The rough destinations need no edge corrections: pick every point's cell
-            // and distance in one branch-free pass, then only the z-buffered writes.
-            let (fin_cell, fin_r2) = (&mut fin_cell[..n], &mut fin_r2[..n]);
-            for j in 0..n {
-                let exact_path = dest[j] == EXACT_PATH;
-                let finite = src_dist[j].is_finite();
-                // (A point at infinity stays in its own cell, as `project` keeps it.)
-                let own = (ring + j) as u32;
-                fin_cell[j] = match (exact_path, finite) {
-                    (false, _) => dest[j],
-                    (true, true) => roughs[j],
-                    (true, false) => own,
-                };
-                fin_r2[j] = if exact_path && !finite {
-                    f32::INFINITY
-                } else {
-                    dist2[j]
-                };
-            }
-            for j in 0..n {
-                put(fin_cell[j], fin_r2[j], src_patch[j]);
-            }
-            continue;
-        }
         for j in 0..n {
             let (cell, r2) = if dest[j] == EXACT_PATH {
                 let r = src_dist[j];
@@ -554,11 +562,11 @@ pub(crate) fn splat(
             } else {
                 (dest[j], dist2[j])
             };
-            put(cell, r2, src_patch[j]);
+            put(cell, r2, src_values[j]);
             if has_lists {
                 for &(id, r) in src.list(ring + j) {
                     let (cell, r2) = project(i, j, r);
-                    put(cell, r2, id);
+                    put(cell, r2, value(id));
                 }
             }
         }
@@ -660,37 +668,39 @@ impl<'h> Estimator<'h> {
         to: PatchId,
         config: &EstimatorConfig,
     ) -> Estimate {
-        estimate_faithful_with(scene, self.hemi, &self.trig, src, to, config)
+        let mut out = Estimate::default();
+        self.faithful_into(scene, src, to, config, &mut out);
+        out
     }
-}
 
-pub(crate) fn estimate_faithful_with(
-    scene: &Scene,
-    hemi: &Hemisphere,
-    trig: &CellTrig,
-    src: &SourceHemisphere,
-    to: PatchId,
-    config: &EstimatorConfig,
-) -> Estimate {
-    let m = motion(scene, src.patch, to);
-    let mut out = Estimate::default();
-    splat(
-        hemi,
-        trig,
-        src,
-        &m,
-        config,
-        false,
-        |id| id,
-        &mut out.items.patch,
-        &mut out.items.dist,
-    );
-    let (holes, hole_ff) = fill_holes(hemi, &mut out.items.patch, config.fill, |c| {
-        src.items.patch[c]
-    });
-    out.holes = holes;
-    out.hole_ff = hole_ff;
-    out
+    /// [`Estimator::faithful`] into `out`, reusing its buffers.
+    pub fn faithful_into(
+        &self,
+        scene: &Scene,
+        src: &SourceHemisphere,
+        to: PatchId,
+        config: &EstimatorConfig,
+        out: &mut Estimate,
+    ) {
+        let m = motion(scene, src.patch, to);
+        splat(
+            self.hemi,
+            &self.trig,
+            src,
+            &m,
+            config,
+            false,
+            &src.items.patch,
+            |id| id,
+            &mut out.items.patch,
+            &mut out.items.dist,
+        );
+        let (holes, hole_ff) = fill_holes(self.hemi, &mut out.items.patch, config.fill, |c| {
+            src.items.patch[c]
+        });
+        out.holes = holes;
+        out.hole_ff = hole_ff;
+    }
 }
 
 #[cfg(test)]

@@ -24,7 +24,7 @@ pub use faithful::{Estimate, Estimator};
 pub use improved::ImprovedEstimate;
 pub use reproject::{reproject_exact, reproject_first_order, Motion, Reprojected};
 pub use schedule::{windows, Window};
-pub use source::SourceHemisphere;
+pub use source::{SourceHemisphere, NO_POLYGON};
 
 /// Errors of estimation.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

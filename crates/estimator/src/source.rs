@@ -1,7 +1,7 @@
 //! The exact hemisphere H1 kept for estimation: what each cell sees, how far, and the
 //! boundary lists of §3.5.2.
 
-use rad_core::{PatchId, Ray, RayCast};
+use rad_core::{PatchId, PolygonId, Ray, RayCast};
 use rad_geometry::Scene;
 use rad_hemisphere::{Hemisphere, ItemBuffer, BACK, ESCAPED};
 
@@ -17,7 +17,14 @@ pub struct SourceHemisphere {
     /// `list[list_start[c]..list_start[c + 1]]`; empty when lists are off.
     pub list_start: Vec<u32>,
     pub list: Vec<(PatchId, f32)>,
+    /// The polygon each cell sees (`NO_POLYGON` for escaped and back-facing rays), made
+    /// on first use by the improved mode and shared by a window's estimates.
+    polygons: std::sync::OnceLock<Vec<PolygonId>>,
 }
+
+/// What [`SourceHemisphere::polygons`] gives a cell that sees no polygon (its ray
+/// escaped, or met a back face).
+pub const NO_POLYGON: PolygonId = PolygonId::MAX;
 
 impl SourceHemisphere {
     /// Casts the exact hemisphere of `patch` (and its boundary lists if asked).
@@ -69,13 +76,48 @@ impl SourceHemisphere {
         }
     }
 
-    /// The boundary-list entries of cell `c` (empty without lists).
-    #[inline]
+    /// A copy without boundary lists (to measure what they do).
+    pub fn without_lists(&self) -> SourceHemisphere {
+        SourceHemisphere {
+            patch: self.patch,
+            items: self.items.clone(),
+            list_start: Vec::new(),
+            list: Vec::new(),
+            polygons: self.polygons.clone(),
+        }
+    }
+
     /// Whether boundary lists were built.
     pub fn has_lists(&self) -> bool {
         !self.list_start.is_empty()
     }
 
+    /// The polygon of `id` (a cell's entry or a boundary-list entry) of `scene`, or
+    /// [`NO_POLYGON`] for `ESCAPED` and `BACK`.
+    #[inline]
+    pub fn polygon_of(scene: &Scene, id: PatchId) -> PolygonId {
+        if id == ESCAPED || id == BACK {
+            NO_POLYGON
+        } else {
+            scene.patches()[id as usize].polygon
+        }
+    }
+
+    /// The polygon each cell sees ([`SourceHemisphere::polygon_of`] of its entry), made
+    /// from `items` on the first call and kept (so `items` must not change after it).
+    /// `scene` must be the scene the hemisphere was cast in.
+    pub fn polygons(&self, scene: &Scene) -> &[PolygonId] {
+        self.polygons.get_or_init(|| {
+            self.items
+                .patch
+                .iter()
+                .map(|&id| Self::polygon_of(scene, id))
+                .collect()
+        })
+    }
+
+    /// The boundary-list entries of cell `c` (empty without lists).
+    #[inline]
     pub fn list(&self, c: usize) -> &[(PatchId, f32)] {
         if self.list_start.is_empty() {
             return &[];

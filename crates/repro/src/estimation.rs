@@ -161,6 +161,8 @@ pub fn timing(
         let mut ss = ScanScratch::default();
         let (mut te, mut tf, mut ti, mut real) = (Vec::new(), Vec::new(), Vec::new(), 0usize);
         let mut ts = Vec::new();
+        // Output buffers reused, as the schedule reuses them (and as `buf` is).
+        let (mut fe, mut ie) = (Default::default(), Default::default());
         for w in &picked {
             let src = SourceHemisphere::cast(scene, &grid, &hemi, w.centre, false, &mut s);
             for &p in &w.estimated {
@@ -171,12 +173,13 @@ pub fn timing(
                 hemi.scan(scene, p, &mut ss, &mut buf);
                 ts.push(t.elapsed().as_secs_f64());
                 let t = Instant::now();
-                std::hint::black_box(est.faithful(scene, &src, p, &faithful));
+                est.faithful_into(scene, &src, p, &faithful, &mut fe);
+                std::hint::black_box(&fe);
                 tf.push(t.elapsed().as_secs_f64());
                 // An abandoned estimate costs its exact cast too, as in the schedule.
                 let t = Instant::now();
-                let e = est.improved_or_cast(scene, &grid, &src, p, &improved, &mut s);
-                real += std::hint::black_box(e).real_rays;
+                est.improved_or_cast_into(scene, &grid, &src, p, &improved, &mut s, &mut ie);
+                real += std::hint::black_box(&ie).real_rays;
                 ti.push(t.elapsed().as_secs_f64());
             }
         }
@@ -381,11 +384,7 @@ pub fn scene_estimation(
                     let src = if cfg.boundary_lists {
                         &sources[w]
                     } else {
-                        stripped = SourceHemisphere {
-                            list_start: Vec::new(),
-                            list: Vec::new(),
-                            ..sources[w].clone()
-                        };
+                        stripped = sources[w].without_lists();
                         &stripped
                     };
                     let (items, holes, real, fallback) = match cfg.mode {

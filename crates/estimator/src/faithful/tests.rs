@@ -1,6 +1,6 @@
 //! The splat's f32 cell lookup against the f64 reference (acos, atan2, `Hemisphere::cell_of`).
 
-use super::CellTrig;
+use super::{CellTrig, EXACT_PATH};
 use rad_hemisphere::{Hemisphere, HemisphereConfig};
 
 /// A small deterministic generator (xorshift), to avoid a dev-dependency here.
@@ -141,11 +141,12 @@ fn the_avx2_ring_pass_gives_the_baseline_answers_bit_for_bit() {
             let mut sure = vec![false; n];
             let (mut q0, mut q1, mut q2) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
             let (mut c2, mut x) = (vec![0f32; n], vec![0f32; n]);
-            ring_pass(
+            ring_pass::<false>(
                 avx2,
                 &r,
                 &terms,
                 &params,
+                0,
                 RingOut {
                     dest: &mut dest,
                     rough: &mut rough,
@@ -173,6 +174,43 @@ fn the_avx2_ring_pass_gives_the_baseline_answers_bit_for_bit() {
             run(true) == run(false),
             "the AVX2 pass differs from the baseline at sinθ = {st}"
         );
+        // The rough pass gives what the full pass's outputs select, both builds.
+        let (dest, rough, _, d2, ..) = run(false);
+        let ring = 7 * n as u32;
+        let want: Vec<(u32, u32)> = (0..n)
+            .map(|j| match (dest[j] == EXACT_PATH, r[j].is_finite()) {
+                (false, _) => (dest[j], d2[j]),
+                (true, true) => (rough[j], d2[j]),
+                (true, false) => (ring + j as u32, f32::INFINITY.to_bits()),
+            })
+            .collect();
+        for avx2 in [false, true] {
+            let (mut dest, mut d2) = (vec![0u32; n], vec![0f32; n]);
+            let mut none = [Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new()];
+            let [q0, q1, q2, c2, x] = &mut none;
+            ring_pass::<true>(
+                avx2 && rad_core::has_avx2(),
+                &r,
+                &terms,
+                &params,
+                ring,
+                RingOut {
+                    dest: &mut dest,
+                    rough: &mut [],
+                    sure: &mut [],
+                    dist2: &mut d2,
+                    q: [q0, q1, q2],
+                    c2,
+                    x,
+                },
+            );
+            let got: Vec<(u32, u32)> = dest
+                .iter()
+                .zip(&d2)
+                .map(|(&c, d)| (c, d.to_bits()))
+                .collect();
+            assert!(got == want, "the rough pass differs at sinθ = {st}");
+        }
     }
 }
 
@@ -224,11 +262,12 @@ fn rough_cells_are_exact_away_from_edges_and_at_most_one_off_near_them() {
         let mut sure = vec![false; n];
         let (mut q0, mut q1, mut q2) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
         let (mut c2, mut x) = (vec![0f32; n], vec![0f32; n]);
-        ring_pass(
+        ring_pass::<false>(
             rad_core::has_avx2(),
             &r,
             &terms,
             &params,
+            0,
             RingOut {
                 dest: &mut dest,
                 rough: &mut rough,
