@@ -31,6 +31,8 @@ fn config(mode: Mode) -> EstimatorConfig {
         },
         boundary_lists: false,
         max_real_ray_share: 0.05,
+        // coherad's default (`rad_repro::default_estimator`).
+        guess_stride: 3,
     }
 }
 

@@ -1,5 +1,5 @@
 //! Estimates hemispheres at 180 × 720 in one mode, for instruction counts under
-//! `valgrind --tool=callgrind`: `MODE=faithful|improved SCENE=loft|cube cargo run
+//! `valgrind --tool=callgrind`: `MODE=faithful|improved SCENE=loft|cube [GUESS=3] [SHARE=0.05] cargo run
 //! --release -p rad-estimator --example profile_estimate`.
 
 use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
@@ -25,7 +25,8 @@ fn main() {
             threshold: 10.0,
         },
         boundary_lists: false,
-        max_real_ray_share: 0.05,
+        max_real_ray_share: std::env::var("SHARE").map_or(0.05, |s| s.parse().unwrap()),
+        guess_stride: std::env::var("GUESS").map_or(3, |s| s.parse().unwrap()),
     };
     let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).expect("valid resolution");
     let scene = match std::env::var("SCENE").as_deref() {
@@ -49,6 +50,7 @@ fn main() {
         .map(|w| w.parse().unwrap())
         .unwrap_or(4);
     let (mut faithful, mut improved) = Default::default();
+    let (mut tests, mut real, mut holes, mut n_est) = (0, 0, 0, 0);
     for k in 0..windows_used {
         let w = &all[(k * 509 + 100) % all.len()];
         let src = SourceHemisphere::cast(&scene, &grid, &hemi, w.centre, false, &mut scratch);
@@ -61,12 +63,25 @@ fn main() {
                 }
                 Mode::Improved => {
                     est.improved_into(&scene, &grid, &src, p, &config, &mut scratch, &mut improved);
+                    tests += improved.tests;
+                    real += improved.real_rays;
+                    holes += improved.holes;
+                    n_est += 1;
                     improved.items.patch.len()
                 }
             };
             seconds += t.elapsed().as_secs_f64();
             cells += n;
         }
+    }
+    if n_est > 0 {
+        let per = |x: usize| x as f64 / n_est as f64 / hemi.n_cells() as f64;
+        println!(
+            "improved: {:.3} tests, {:.4} real rays, {:.3} holes a cell",
+            per(tests),
+            per(real),
+            per(holes)
+        );
     }
     println!(
         "{cells} cells estimated, {:.3} ms per estimate",

@@ -53,7 +53,17 @@ pub struct EstimatorConfig {
     /// Improved mode: a patch whose estimate needs real rays for more than this share
     /// of its cells is computed exactly instead.
     pub max_real_ray_share: f64,
+    /// Improved mode: the polygons are guessed on a grid s times coarser both ways,
+    /// s the largest stride up to this one (1 to [`MAX_GUESS_STRIDE`]) that divides
+    /// both N_θ and N_φ. At 1 every point of H1 is splatted and each cell is tested
+    /// against the guesses of its 3 × 3 cells; at s > 1 the points of H1's cells
+    /// (sI, sJ) are splatted and each cell is tested against the guesses of the 3 × 3
+    /// coarse cells around its own.
+    pub guess_stride: u32,
 }
+
+/// The largest [`EstimatorConfig::guess_stride`].
+pub const MAX_GUESS_STRIDE: u32 = 4;
 
 impl EstimatorConfig {
     /// Checks the numeric settings.
@@ -73,6 +83,13 @@ impl EstimatorConfig {
                 name: "max_real_ray_share",
                 value: self.max_real_ray_share,
                 rule: "must be in [0, 1]",
+            });
+        }
+        if !(1..=MAX_GUESS_STRIDE).contains(&self.guess_stride) {
+            return Err(Error::Config {
+                name: "guess_stride",
+                value: self.guess_stride as f64,
+                rule: "must be in 1..=4",
             });
         }
         Ok(())

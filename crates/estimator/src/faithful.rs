@@ -20,9 +20,14 @@ pub struct Estimate {
     pub hole_ff: f64,
 }
 
-/// Per-cell trigonometry of a hemisphere and its cell boundaries, computed once.
+/// Per-cell trigonometry of a hemisphere and its cell boundaries, computed once: the
+/// directions of the source points splatted, and the grid they are splatted into. With
+/// a stride s > 1 the grid is s × s times coarser (cells of s × s of the hemisphere's)
+/// and the source point of its cell (I, J) is in the direction of the hemisphere's cell
+/// (sI, sJ) (see [`splat`]).
 #[derive(Clone, Debug)]
 pub(crate) struct CellTrig {
+    /// Directions of the source points: θ by ring, φ by sector (of this grid).
     pub theta: Vec<f32>,
     pub st: Vec<f32>,
     pub ct: Vec<f32>,
@@ -40,48 +45,73 @@ pub(crate) struct CellTrig {
     pub shift: f32,
     pub n_theta: usize,
     pub n_phi: usize,
+    /// The source point's position within its cell, in cells (both ways): ½ / s.
+    pub src_pos: f32,
+    /// The stride s, and the smaller of the cells' angular sizes.
+    pub stride: usize,
+    pub min_cell: f64,
 }
 
 impl CellTrig {
     pub fn new(hemi: &Hemisphere) -> CellTrig {
-        let theta: Vec<f64> = (0..hemi.n_theta()).map(|i| hemi.theta(i)).collect();
-        let phi: Vec<f64> = (0..hemi.n_phi()).map(|j| hemi.phi(j)).collect();
+        CellTrig::strided(hemi, 1)
+    }
+
+    /// The tables of the grid s times coarser both ways (`stride` must divide N_θ and
+    /// N_φ).
+    pub fn strided(hemi: &Hemisphere, stride: usize) -> CellTrig {
+        assert!(
+            stride >= 1 && hemi.n_theta() % stride == 0 && hemi.n_phi() % stride == 0,
+            "the stride divides the resolution"
+        );
+        let (n_theta, n_phi) = (hemi.n_theta() / stride, hemi.n_phi() / stride);
+        let (d_theta, d_phi) = (stride as f64 * hemi.d_theta(), stride as f64 * hemi.d_phi());
+        let theta: Vec<f64> = (0..n_theta).map(|i| hemi.theta(stride * i)).collect();
+        let phi: Vec<f64> = (0..n_phi).map(|j| hemi.phi(stride * j)).collect();
         let f = |v: &[f64], g: fn(f64) -> f64| v.iter().map(|&x| g(x) as f32).collect::<Vec<f32>>();
-        let shift = hemi.config().phi_shift;
+        // Sector J spans the hemisphere's sectors sJ .. sJ + s: from (sJ + shift) Δφ.
+        let shift = hemi.config().phi_shift / stride as f64;
         CellTrig {
             st: f(&theta, f64::sin),
             ct: f(&theta, f64::cos),
             sp: f(&phi, f64::sin),
             cp: f(&phi, f64::cos),
-            cos2_edge: (0..=hemi.n_theta())
+            cos2_edge: (0..=n_theta)
                 .map(|k| {
-                    if k == hemi.n_theta() {
+                    if k == n_theta {
                         0.0
                     } else {
-                        (k as f64 * hemi.d_theta()).cos().powi(2) as f32
+                        (k as f64 * d_theta).cos().powi(2) as f32
                     }
                 })
                 .collect(),
             ring_of_c2: (0..RING_TABLE)
                 .map(|t| {
                     let c2 = (t as f64 + 0.5) / RING_TABLE as f64;
-                    ((c2.sqrt().acos() / hemi.d_theta()) as usize).min(hemi.n_theta() - 1) as u16
+                    ((c2.sqrt().acos() / d_theta) as usize).min(n_theta - 1) as u16
                 })
                 .collect(),
-            phi_edge: (0..=hemi.n_phi())
+            phi_edge: (0..=n_phi)
                 .map(|l| {
-                    let a = (l as f64 + shift) * hemi.d_phi();
+                    let a = (l as f64 + shift) * d_phi;
                     [a.cos() as f32, a.sin() as f32]
                 })
                 .collect(),
             theta: theta.iter().map(|&x| x as f32).collect(),
             phi: phi.iter().map(|&x| x as f32).collect(),
-            inv_d_theta: (1.0 / hemi.d_theta()) as f32,
-            inv_d_phi: (1.0 / hemi.d_phi()) as f32,
+            inv_d_theta: (1.0 / d_theta) as f32,
+            inv_d_phi: (1.0 / d_phi) as f32,
             shift: shift as f32,
-            n_theta: hemi.n_theta(),
-            n_phi: hemi.n_phi(),
+            n_theta,
+            n_phi,
+            src_pos: (0.5 / stride as f64) as f32,
+            stride,
+            min_cell: d_theta.min(d_phi),
         }
+    }
+
+    pub fn n_cells(&self) -> usize {
+        self.n_theta * self.n_phi
     }
 
     /// The sector of azimuth `phi` (any finite angle): without divisions or libm calls
@@ -378,28 +408,43 @@ pub(crate) fn motion(scene: &Scene, from: PatchId, to: PatchId) -> Motion {
     Motion::new([d.x as f64, d.y as f64, d.z as f64])
 }
 
-/// Splats every point of `src` (and its boundary lists) into `(ids, zbuf)` as seen
-/// from C1 + `m`, the nearest winning (the first writer on ties). A cell records
-/// `values[c]` for H1's cell `c`, and `value(id)` for a boundary-list entry `id`.
-/// Points at infinity (escaped rays) do not move.
+/// The points a splat moves, one per cell of its grid (see [`splat`]).
+pub(crate) struct Points<'a> {
+    pub dist: &'a [f32],
+    /// What a cell records for each point.
+    pub values: &'a [PatchId],
+    /// H1's cell of each point, whose boundary list goes with it (empty: the same cell).
+    pub cells: &'a [u32],
+    /// (point, value): values that go where a point goes, not z-buffered, by point.
+    pub extras: &'a [(u32, PatchId)],
+}
+
+/// Splats `points` (and the boundary lists of `src` that go with them) into `(ids,
+/// zbuf)`, cells of `trig`'s grid, as seen from C1 + `m`, the nearest winning (the first
+/// writer on ties). The point of cell c is in the direction of the grid's cell c as seen
+/// from H1 (with a stride s, that of H1's cell (sI, sJ)) at `points.dist[c]`; its cell
+/// records `points.values[c]`, and a boundary-list entry `id` records `value(id)`.
+/// `extras` gets each of `points.extras` with the cell its point lands in. Points at
+/// infinity (escaped rays) do not move.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn splat(
-    hemi: &Hemisphere,
     trig: &CellTrig,
     src: &SourceHemisphere,
     m: &Motion,
     config: &EstimatorConfig,
     rough: bool,
-    values: &[PatchId],
+    points: Points,
     value: impl Fn(PatchId) -> PatchId,
     ids: &mut Vec<PatchId>,
     zbuf: &mut Vec<f32>,
+    extras: &mut Vec<(u32, PatchId)>,
 ) {
-    let n_phi = hemi.n_phi();
+    extras.clear();
+    let n_phi = trig.n_phi;
     ids.clear();
-    ids.resize(hemi.n_cells(), HOLE);
+    ids.resize(trig.n_cells(), HOLE);
     zbuf.clear();
-    zbuf.resize(hemi.n_cells(), f32::INFINITY);
+    zbuf.resize(trig.n_cells(), f32::INFINITY);
     let d = [m.d[0] as f32, m.d[1] as f32, m.d[2] as f32];
     let len = m.len as f32;
     // Per sector: d·(cosφ, sinφ, 0) and d·(−sinφ, cosφ, 0), for the first-order formulas.
@@ -475,7 +520,7 @@ pub(crate) fn splat(
     };
     let ka: Vec<f32> = a.iter().map(|&x| x * trig.inv_d_theta).collect();
     let kb: Vec<f32> = b.iter().map(|&x| x * trig.inv_d_phi).collect();
-    let jc: Vec<f32> = (0..n_phi).map(|j| j as f32 + 0.5).collect();
+    let jc: Vec<f32> = (0..n_phi).map(|j| j as f32 + trig.src_pos).collect();
     let terms = SectorTerms {
         ka: &ka,
         kb: &kb,
@@ -486,8 +531,32 @@ pub(crate) fn splat(
     };
     let avx2 = rad_core::has_avx2();
     let has_lists = src.has_lists();
-    for i in 0..hemi.n_theta() {
+    // Cursor in the extras (by cell), and every point's cell of a ring.
+    let (mut extra, mut cell_of) = (0, vec![NOWHERE; n_phi]);
+    for i in 0..trig.n_theta {
         let ring = i * n_phi;
+        let (r, src_values) = (
+            &points.dist[ring..ring + n_phi],
+            &points.values[ring..ring + n_phi],
+        );
+        let src_cells = if points.cells.is_empty() {
+            &[][..]
+        } else {
+            &points.cells[ring..ring + n_phi]
+        };
+        let first_extra = extra;
+        while extra < points.extras.len() && (points.extras[extra].0 as usize) < ring + n_phi {
+            extra += 1;
+        }
+        let ring_extras = &points.extras[first_extra..extra];
+        // H1's cell of this grid's sector j (whose boundary list goes with its point).
+        let src_cell = |j: usize| {
+            if src_cells.is_empty() {
+                ring + j
+            } else {
+                src_cells[j] as usize
+            }
+        };
         let (st, ct) = (trig.st[i], trig.ct[i]);
         let params = RingParams {
             st,
@@ -499,16 +568,16 @@ pub(crate) fn splat(
             } else {
                 f32::INFINITY
             },
-            fi0: i as f32 + 0.5,
+            fi0: i as f32 + trig.src_pos,
             kd: st * d[2] * trig.inv_d_theta,
             inv_st: 1.0 / st,
             d,
             n: n_phi,
-            n_theta: hemi.n_theta(),
+            n_theta: trig.n_theta,
             inv_d_theta: trig.inv_d_theta,
             inv_d_phi: trig.inv_d_phi,
             shift: trig.shift,
-            fast: hemi.d_theta().min(hemi.d_phi()) >= FAST_PATH_MIN_CELL,
+            fast: trig.min_cell >= FAST_PATH_MIN_CELL,
             margin_k: EDGE_MARGIN * trig.inv_d_theta,
             margin_l: EDGE_MARGIN * trig.inv_d_phi,
         };
@@ -521,9 +590,8 @@ pub(crate) fn splat(
             c2: &mut c2s,
             x: &mut xs,
         };
-        let r = &src.items.dist[ring..ring + n_phi];
         let n = n_phi;
-        let (src_values, src_dist) = (&values[ring..ring + n], &src.items.dist[ring..ring + n]);
+        let (src_values, src_dist) = (&src_values[..n], &r[..n]);
         if rough && !has_lists {
             // The rough destinations need no edge corrections: every point's cell and
             // distance from the branch-free pass, then only the z-buffered writes.
@@ -532,6 +600,12 @@ pub(crate) fn splat(
             for j in 0..n {
                 put(dest[j], dist2[j], src_values[j]);
             }
+            extras.extend(
+                ring_extras
+                    .iter()
+                    .map(|&(c, v)| (dest[c as usize - ring], v))
+                    .filter(|e| e.0 != NOWHERE),
+            );
             continue;
         }
         ring_pass::<false>(avx2, r, &terms, &params, ring as u32, out);
@@ -563,13 +637,20 @@ pub(crate) fn splat(
                 (dest[j], dist2[j])
             };
             put(cell, r2, src_values[j]);
+            cell_of[j] = cell;
             if has_lists {
-                for &(id, r) in src.list(ring + j) {
+                for &(id, r) in src.list(src_cell(j)) {
                     let (cell, r2) = project(i, j, r);
                     put(cell, r2, value(id));
                 }
             }
         }
+        extras.extend(
+            ring_extras
+                .iter()
+                .map(|&(c, v)| (cell_of[c as usize - ring], v))
+                .filter(|e| e.0 != NOWHERE),
+        );
     }
     for z in zbuf.iter_mut() {
         *z = z.sqrt();
@@ -646,6 +727,8 @@ pub(crate) fn fill_holes(
 pub struct Estimator<'h> {
     pub(crate) hemi: &'h Hemisphere,
     pub(crate) trig: CellTrig,
+    /// The tables of strides 2 ..= `MAX_GUESS_STRIDE`, made on first use.
+    strided: [std::sync::OnceLock<CellTrig>; crate::config::MAX_GUESS_STRIDE as usize - 1],
 }
 
 impl<'h> Estimator<'h> {
@@ -653,6 +736,21 @@ impl<'h> Estimator<'h> {
         Estimator {
             hemi,
             trig: CellTrig::new(hemi),
+            strided: Default::default(),
+        }
+    }
+
+    /// The tables of the grid s times coarser, s the largest stride up to `stride`
+    /// (and `MAX_GUESS_STRIDE`) that divides the resolution both ways.
+    pub(crate) fn trig_strided(&self, stride: usize) -> &CellTrig {
+        let h = self.hemi;
+        let max = stride.min(self.strided.len() + 1);
+        match (2..=max)
+            .rev()
+            .find(|&s| h.n_theta() % s == 0 && h.n_phi() % s == 0)
+        {
+            Some(s) => self.strided[s - 2].get_or_init(|| CellTrig::strided(h, s)),
+            None => &self.trig,
         }
     }
 
@@ -684,16 +782,21 @@ impl<'h> Estimator<'h> {
     ) {
         let m = motion(scene, src.patch, to);
         splat(
-            self.hemi,
             &self.trig,
             src,
             &m,
             config,
             false,
-            &src.items.patch,
+            Points {
+                dist: &src.items.dist,
+                values: &src.items.patch,
+                cells: &[],
+                extras: &[],
+            },
             |id| id,
             &mut out.items.patch,
             &mut out.items.dist,
+            &mut Vec::new(),
         );
         let (holes, hole_ff) = fill_holes(self.hemi, &mut out.items.patch, config.fill, |c| {
             src.items.patch[c]

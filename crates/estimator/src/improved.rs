@@ -2,7 +2,7 @@
 //! of H2 with its own ray against the polygons guessed for it and its 8 neighbours.
 
 use crate::config::EstimatorConfig;
-use crate::faithful::{motion, splat, Estimator, HOLE};
+use crate::faithful::{motion, splat, Estimator, Points, HOLE};
 use crate::source::{SourceHemisphere, NO_POLYGON};
 use rad_core::{Hit, PatchId, PolygonId, RayCast};
 use rad_geometry::Scene;
@@ -12,7 +12,8 @@ use rad_hemisphere::{ItemBuffer, NearestHits, BACK, ESCAPED};
 #[derive(Clone, Debug, Default)]
 pub struct ImprovedEstimate {
     pub items: ItemBuffer,
-    /// Cells nothing landed in, before filling.
+    /// Cells of H2 whose guess cell nothing landed in, before filling (a coarse guess
+    /// cell counts for the s × s cells it covers).
     pub holes: usize,
     /// Cells whose guessed polygons all missed (or whose nearest is a back face),
     /// resolved by a real ray.
@@ -36,6 +37,9 @@ struct Work {
     zbuf: Vec<f32>,
     /// A ring's maximal runs of equal guesses: (guess, first sector, end).
     raw: Vec<(u32, i64, i64)>,
+    /// Coarse guess grids: the polygons of H1's cells other than their point's, with
+    /// the guess cell it lands in: (cell, polygon), each a guess of that cell too.
+    extras: Vec<(u32, PolygonId)>,
     /// Runs of usable guesses, holes filled and grown by a cell each way, ring by ring
     /// (`ring_runs[i]..ring_runs[i + 1]`), sorted: (polygon << 32 | first sector in
     /// [0, N_φ), end sector, at most first + N_φ).
@@ -150,24 +154,47 @@ impl Estimator<'_> {
         let own = target.polygon;
         let polygons = scene.polygons();
         let o = target.center;
-        let (n_theta, n_phi) = (hemi.n_theta(), hemi.n_phi());
+        // The guess grid: the hemisphere's, or coarser (see `guess_stride`).
+        let trig = self.trig_strided(config.guess_stride as usize);
+        let stride = trig.stride;
+        let (n_theta, n_phi) = (trig.n_theta, trig.n_phi);
+        let fine_n_phi = hemi.n_phi();
         // 1. Splat polygons (z-buffered). Guesses need not be exact: a cell tests its
         // neighbours' guesses too, so the near points' cells come from the polynomial
         // angles without edge corrections (off by one cell within about 1e-5 rad of an
         // edge).
         let values = src.polygons(scene);
+        let points = if stride == 1 {
+            Points {
+                dist: &src.items.dist,
+                values,
+                cells: &[],
+                extras: &[],
+            }
+        } else {
+            let c = src.coarse(scene, hemi, stride);
+            Points {
+                dist: &c.dist,
+                values: &c.polygons,
+                cells: &c.cells,
+                extras: &c.extras,
+            }
+        };
+        let ring_values = points.values;
         splat(
-            hemi,
-            &self.trig,
+            trig,
             src,
             &m,
             config,
             true,
-            values,
+            points,
             |id| SourceHemisphere::polygon_of(scene, id),
             &mut w.guess,
             &mut w.zbuf,
+            &mut w.extras,
         );
+        // Extra guesses (coarse grids): by ring.
+        w.extras.sort_unstable();
         // 2. Runs of guesses ring by ring, holes filled as `HoleFill::RingNeighbour`
         // fills them (each hole takes the nearer written cell of its ring, the lower φ
         // on ties; H1's polygon where the whole ring is a hole).
@@ -183,7 +210,7 @@ impl Estimator<'_> {
             };
             (u64::from(g) << 32 | a as u64, b as u32)
         };
-        let mut holes = 0;
+        let (mut holes, mut extra) = (0, 0);
         w.runs.clear();
         w.ring_runs.clear();
         w.ring_runs.push(0);
@@ -198,7 +225,8 @@ impl Estimator<'_> {
                 .sum();
             holes += n_holes as usize;
             if n_holes == n {
-                maximal_runs(&values[i * n_phi..(i + 1) * n_phi], &mut w.raw);
+                // H1's polygons of this ring's points.
+                maximal_runs(&ring_values[i * n_phi..(i + 1) * n_phi], &mut w.raw);
                 w.runs
                     .extend(w.raw.iter().filter(|r| usable(r.0)).map(|&r| span(r)));
             } else if n_holes == 0 {
@@ -211,18 +239,31 @@ impl Estimator<'_> {
                     }
                 });
             }
+            // This ring's extra guesses, each a run of one cell.
+            let ring_cells = (i * n_phi) as u32..((i + 1) * n_phi) as u32;
+            while let Some(&(c, g)) = w.extras.get(extra) {
+                if !ring_cells.contains(&c) {
+                    break;
+                }
+                extra += 1;
+                if usable(g) {
+                    let j = (c - ring_cells.start) as i64;
+                    w.runs.push(span((g, j, j + 1)));
+                }
+            }
             let first = w.ring_runs[i];
             w.runs[first..].sort_unstable_by_key(|s| s.0);
             w.ring_runs.push(w.runs.len());
         }
-        out.holes = holes;
+        out.holes = holes * stride * stride;
         out.abandoned = false;
-        // 3. Resolve each cell with its own ray, against the polygons guessed for it and
-        // its 8 neighbours: polygon by polygon over spans of a ring (vectorised, the
-        // voxel grid's arithmetic), each polygon tested on the cells it is guessed for,
-        // grown by one cell each way (so on every cell that has it among its 3 × 3
-        // guesses), in increasing id order so that ties go to the lower id, as in the
-        // grid. Every polygon's terms for this origin are computed once.
+        // 3. Resolve each cell with its own ray, against the polygons guessed for its
+        // guess cell and that cell's 8 neighbours: polygon by polygon over spans of a
+        // ring (vectorised, the voxel grid's arithmetic), each polygon tested on the
+        // cells it is guessed for, grown by one guess cell each way (so on every cell
+        // that has it among its 3 × 3 guesses), in increasing id order so that ties go
+        // to the lower id, as in the grid. Every polygon's terms for this origin are
+        // computed once.
         w.terms_of.clear();
         w.terms_of
             .extend(polygons.iter().map(|p| p.origin_terms(o)));
@@ -247,7 +288,8 @@ impl Estimator<'_> {
                     runs[at[k] - 1]
                 })
             };
-            let ring = i * n_phi;
+            // This guess ring's cells: the hemisphere's rings stride i .. stride (i + 1).
+            let fine_rings = stride * i..stride * (i + 1);
             let mut cur = next();
             while let Some((key, mut b)) = cur {
                 // Merge the overlapping spans of one polygon.
@@ -260,16 +302,18 @@ impl Estimator<'_> {
                     b = b.max(b2);
                     cur = next();
                 }
-                let b = b as usize;
                 let (poly, terms) = (&polygons[g as usize], w.terms_of[g as usize]);
-                if b - a >= n_phi {
-                    hits.test(poly, g, terms, ring..ring + n_phi);
-                } else if b <= n_phi {
-                    hits.test(poly, g, terms, ring + a..ring + b);
-                } else {
-                    // Wrapping round: two pieces.
-                    hits.test(poly, g, terms, ring + a..ring + n_phi);
-                    hits.test(poly, g, terms, ring..ring + (b - n_phi));
+                let (a, b, n) = (stride * a, stride * b as usize, fine_n_phi);
+                for ring in fine_rings.clone().map(|r| r * n) {
+                    if b - a >= n {
+                        hits.test(poly, g, terms, ring..ring + n);
+                    } else if b <= n {
+                        hits.test(poly, g, terms, ring + a..ring + b);
+                    } else {
+                        // Wrapping round: two pieces.
+                        hits.test(poly, g, terms, ring + a..ring + n);
+                        hits.test(poly, g, terms, ring..ring + (b - n));
+                    }
                 }
             }
         }

@@ -18,7 +18,7 @@ mod reproject;
 mod schedule;
 mod source;
 
-pub use config::{EstimatorConfig, HoleFill, Mode, Reprojection, ThresholdTest};
+pub use config::{EstimatorConfig, HoleFill, Mode, Reprojection, ThresholdTest, MAX_GUESS_STRIDE};
 pub use driver::{estimate_rows, EstimateStats, EstimatedRow, Source};
 pub use faithful::{Estimate, Estimator};
 pub use improved::ImprovedEstimate;

@@ -20,6 +20,21 @@ pub struct SourceHemisphere {
     /// The polygon each cell sees (`NO_POLYGON` for escaped and back-facing rays), made
     /// on first use by the improved mode and shared by a window's estimates.
     polygons: std::sync::OnceLock<Vec<PolygonId>>,
+    /// Its points on grids 2, 3 and 4 times coarser, made on first use likewise.
+    coarse: [std::sync::OnceLock<CoarsePoints>; 3],
+}
+
+/// H1's points on a grid s times coarser both ways: one point per s × s cells, the
+/// nearest of them (the first on ties), with its polygon; and the other polygons those
+/// cells see.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct CoarsePoints {
+    /// By coarse cell: the point's distance, polygon, and H1's cell.
+    pub dist: Vec<f32>,
+    pub polygons: Vec<PolygonId>,
+    pub cells: Vec<u32>,
+    /// (coarse cell, polygon): the other polygons of its s × s cells, by cell.
+    pub extras: Vec<(u32, PolygonId)>,
 }
 
 /// What [`SourceHemisphere::polygons`] gives a cell that sees no polygon (its ray
@@ -84,6 +99,7 @@ impl SourceHemisphere {
             list_start: Vec::new(),
             list: Vec::new(),
             polygons: self.polygons.clone(),
+            coarse: self.coarse.clone(),
         }
     }
 
@@ -113,6 +129,44 @@ impl SourceHemisphere {
                 .iter()
                 .map(|&id| Self::polygon_of(scene, id))
                 .collect()
+        })
+    }
+
+    /// Its points on `hemi`'s grid `stride` (2 to 4, dividing N_θ and N_φ) times coarser,
+    /// made once (from `items`, which must not change after).
+    pub(crate) fn coarse(&self, scene: &Scene, hemi: &Hemisphere, stride: usize) -> &CoarsePoints {
+        self.coarse[stride - 2].get_or_init(|| {
+            let values = self.polygons(scene);
+            let dist = &self.items.dist;
+            let (n_theta, n_phi) = (hemi.n_theta() / stride, hemi.n_phi() / stride);
+            let fine = hemi.n_phi();
+            let mut out = CoarsePoints::default();
+            for i in 0..n_theta {
+                for j in 0..n_phi {
+                    let block = |a: usize| {
+                        let row = (stride * i + a) * fine + stride * j;
+                        row..row + stride
+                    };
+                    let mut best = block(0).start;
+                    for c in (0..stride).flat_map(block) {
+                        if dist[c] < dist[best] {
+                            best = c;
+                        }
+                    }
+                    out.dist.push(dist[best]);
+                    out.polygons.push(values[best]);
+                    out.cells.push(best as u32);
+                    let cell = (i * n_phi + j) as u32;
+                    let first = out.extras.len();
+                    for c in (0..stride).flat_map(block) {
+                        let v = values[c];
+                        if v != values[best] && !out.extras[first..].contains(&(cell, v)) {
+                            out.extras.push((cell, v));
+                        }
+                    }
+                }
+            }
+            out
         })
     }
 

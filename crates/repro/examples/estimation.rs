@@ -1,5 +1,7 @@
 //! Runs the estimation-error experiment on one scene and prints a line per setting:
-//! `cargo run --release -p rad-repro --example estimation -- cube 180x720 [quick]`.
+//! `cargo run --release -p rad-repro --example estimation -- cube 180x720 [quick]`
+//! (`ONLY=improved` keeps the settings whose name holds that text; the loft's windows
+//! are those of the reproduction's polygons).
 
 use rad_geometry::scenes::{cube, loft};
 use rad_geometry::Scene;
@@ -13,10 +15,7 @@ fn main() {
     let quick = args.get(3).is_some_and(|a| a == "quick");
     let (scene, polys): (Scene, Option<Vec<u32>>) = match scene_name {
         "cube" => (Scene::new(cube(10)).unwrap(), None),
-        _ => (
-            Scene::new(loft()).unwrap(),
-            Some((0..185).step_by(13).collect()),
-        ),
+        _ => (Scene::new(loft()).unwrap(), Some(vec![4, 52, 91, 130, 182])),
     };
     let r = scene_estimation(
         scene_name,
@@ -24,7 +23,10 @@ fn main() {
         (nt, np),
         polys.as_deref(),
         scene_name == "cube",
-        &settings(quick),
+        &settings(quick)
+            .into_iter()
+            .filter(|s| std::env::var("ONLY").map_or(true, |o| s.name.contains(&o)))
+            .collect::<Vec<_>>(),
         &|_, _| {},
     )
     .unwrap();

@@ -66,16 +66,27 @@ pub fn settings(quick: bool) -> Vec<Setting> {
                         reprojection: *r,
                         boundary_lists: bl,
                         max_real_ray_share: 1.0,
+                        guess_stride: 1,
                     },
                 });
             }
         }
-        for share in [0.02, 0.05, 0.10] {
-            if (quick || bl) && share != 0.05 {
+        let default_stride = crate::default_estimator(Mode::Improved).guess_stride;
+        for (share, stride) in [(0.02, 1), (0.05, 1), (0.10, 1), (0.05, 2), (0.05, 3)] {
+            // Quick, and with lists: the default setting only.
+            if (quick || bl) && (share != 0.05 || stride != default_stride) {
                 continue;
             }
+            let stride_name = if stride > 1 {
+                format!(", guesses /{stride}")
+            } else {
+                String::new()
+            };
             out.push(Setting {
-                name: format!("improved, real rays <= {:.0} %{bl_name}", share * 100.0),
+                name: format!(
+                    "improved, real rays <= {:.0} %{stride_name}{bl_name}",
+                    share * 100.0
+                ),
                 config: EstimatorConfig {
                     mode: Mode::Improved,
                     fill: HoleFill::RingNeighbour,
@@ -85,6 +96,7 @@ pub fn settings(quick: bool) -> Vec<Setting> {
                     },
                     boundary_lists: bl,
                     max_real_ray_share: share,
+                    guess_stride: stride,
                 },
             });
         }
@@ -104,7 +116,9 @@ pub fn loft_settings(quick: bool) -> Vec<Setting> {
         "improved, real rays <= 2 %",
         "improved, real rays <= 5 %",
         "improved, real rays <= 10 %",
-        "improved, real rays <= 5 %, lists",
+        "improved, real rays <= 5 %, guesses /2",
+        "improved, real rays <= 5 %, guesses /3",
+        "improved, real rays <= 5 %, guesses /3, lists",
     ];
     settings(false)
         .into_iter()

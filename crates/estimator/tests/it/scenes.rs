@@ -25,6 +25,14 @@ fn config(mode: Mode, fill: HoleFill, reprojection: Reprojection, lists: bool) -
         reprojection,
         boundary_lists: lists,
         max_real_ray_share: 0.05,
+        guess_stride: 1,
+    }
+}
+
+fn with_stride(stride: u32, cfg: EstimatorConfig) -> EstimatorConfig {
+    EstimatorConfig {
+        guess_stride: stride,
+        ..cfg
     }
 }
 
@@ -91,6 +99,40 @@ fn zero_motion_gives_the_source_hemisphere_in_both_modes() {
     }
 }
 
+/// With coarse guesses and no motion, improved mode gives H1 too: each cell's own
+/// polygon is among the guesses of its coarse cell (the nearest point of the s × s
+/// cells, and their other polygons as extra guesses).
+#[test]
+fn zero_motion_with_coarse_guesses() {
+    for desc in [cube(10), loft()] {
+        let scene = Scene::new(desc).unwrap();
+        let grid = VoxelGrid::build(&scene, &GRID).unwrap();
+        let hemi = Hemisphere::new(HemisphereConfig::exact(60, 240)).unwrap();
+        let est = Estimator::new(&hemi);
+        let mut s = grid.new_scratch();
+        for (p, lists) in [(0u32, false), (37, true), (555, false), (555, true)] {
+            let src = SourceHemisphere::cast(&scene, &grid, &hemi, p, lists, &mut s);
+            for stride in [2, 3, 4] {
+                let cfg = with_stride(
+                    stride,
+                    config(Mode::Improved, HoleFill::RingNeighbour, LATERAL, lists),
+                );
+                let i = est.improved(&scene, &grid, &src, p, &cfg, &mut s);
+                let wrong = i
+                    .items
+                    .patch
+                    .iter()
+                    .zip(&src.items.patch)
+                    .filter(|(a, b)| a != b)
+                    .count();
+                assert_eq!(wrong, 0, "patch {p}, stride {stride}: cells differ");
+                assert_eq!(i.real_rays, 0, "patch {p}, stride {stride}");
+                assert_eq!(i.holes, 0, "patch {p}, stride {stride}");
+            }
+        }
+    }
+}
+
 #[test]
 fn the_schedule_covers_every_patch_once() {
     let c = Scene::new(cube(10)).unwrap();
@@ -119,9 +161,13 @@ fn estimated_rows_are_valid_rows_in_closed_scenes() {
         let grid = VoxelGrid::build(&scene, &GRID).unwrap();
         let hemi = Hemisphere::new(HemisphereConfig::exact(45, 180)).unwrap();
         let some: Vec<u32> = (0..scene.patches().len() as u32).step_by(7).collect();
-        for mode in [Mode::Faithful, Mode::Improved] {
+        for (mode, stride) in [
+            (Mode::Faithful, 1),
+            (Mode::Improved, 1),
+            (Mode::Improved, 3),
+        ] {
             for fill in [HoleFill::KeepSource, HoleFill::RingNeighbour] {
-                let cfg = config(mode, fill, LATERAL, true);
+                let cfg = with_stride(stride, config(mode, fill, LATERAL, true));
                 let (rows, stats) =
                     estimate_rows(&scene, &grid, &hemi, &cfg, &some, &|_| {}).unwrap();
                 assert_eq!(rows.len(), some.len());
@@ -147,7 +193,10 @@ fn estimation_does_not_depend_on_the_thread_count() {
     let grid = VoxelGrid::build(&scene, &GRID).unwrap();
     let hemi = Hemisphere::new(HemisphereConfig::exact(30, 120)).unwrap();
     let some: Vec<u32> = (0..400).collect();
-    let cfg = config(Mode::Improved, HoleFill::RingNeighbour, LATERAL, false);
+    let cfg = with_stride(
+        3,
+        config(Mode::Improved, HoleFill::RingNeighbour, LATERAL, false),
+    );
     let run = |t| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(t)
@@ -221,13 +270,13 @@ fn cube_faithful_mode_reaches_the_prototypes_figures() {
 
 #[test]
 fn cube_improved_mode_is_within_two_percent_of_exact() {
-    let (_, all) = cube_errors(&config(
-        Mode::Improved,
-        HoleFill::RingNeighbour,
-        LATERAL,
-        false,
-    ));
-    assert!(all < 0.02, "{all}");
+    for stride in [1, 3] {
+        let (_, all) = cube_errors(&with_stride(
+            stride,
+            config(Mode::Improved, HoleFill::RingNeighbour, LATERAL, false),
+        ));
+        assert!(all < 0.02, "guess stride {stride}: {all}");
+    }
 }
 
 /// Improved mode stops before casting its real rays when it would need more than its
@@ -245,6 +294,7 @@ fn improved_mode_abandons_over_its_real_ray_share() {
         for &p in &w.estimated {
             let with = |share| EstimatorConfig {
                 max_real_ray_share: share,
+                guess_stride: 1,
                 ..config(Mode::Improved, HoleFill::RingNeighbour, LATERAL, false)
             };
             let all = est.improved(&scene, &grid, &src, p, &with(1.0), &mut s);
@@ -284,6 +334,7 @@ fn improved_estimates_do_not_depend_on_the_previous_scene() {
         let src = SourceHemisphere::cast(&scene, &grid, &hemi, w.centre, false, &mut s);
         let cfg = EstimatorConfig {
             max_real_ray_share: 1.0,
+            guess_stride: 1,
             ..config(Mode::Improved, HoleFill::RingNeighbour, LATERAL, false)
         };
         Estimator::new(&hemi)
@@ -312,4 +363,41 @@ fn improved_estimates_do_not_depend_on_the_previous_scene() {
     assert!(l1 == fresh(&loft), "loft differs");
     assert!(c1 == fresh(&|| cube(10)), "cube differs");
     assert!(c2 == c1, "cube differs the second time");
+}
+
+/// Settings out of range are refused by name before any work, by the schedule too.
+#[test]
+fn bad_settings_are_refused_by_name() {
+    let base = config(Mode::Improved, HoleFill::RingNeighbour, LATERAL, false);
+    assert!(base.validate().is_ok());
+    let bad = [
+        ("guess_stride", with_stride(0, base)),
+        ("guess_stride", with_stride(5, base)),
+        (
+            "max_real_ray_share",
+            EstimatorConfig {
+                max_real_ray_share: f64::NAN,
+                ..base
+            },
+        ),
+        (
+            "threshold",
+            EstimatorConfig {
+                reprojection: Reprojection::FirstOrder {
+                    test: ThresholdTest::Lateral,
+                    threshold: -1.0,
+                },
+                ..base
+            },
+        ),
+    ];
+    let scene = Scene::new(cube(10)).unwrap();
+    let grid = VoxelGrid::build(&scene, &GRID).unwrap();
+    let hemi = Hemisphere::new(HemisphereConfig::exact(6, 24)).unwrap();
+    for (name, cfg) in bad {
+        let e = cfg.validate().unwrap_err();
+        assert!(e.to_string().contains(name), "{e}");
+        let e = estimate_rows(&scene, &grid, &hemi, &cfg, &[0], &|_| {}).unwrap_err();
+        assert!(e.to_string().contains(name), "{e}");
+    }
 }
