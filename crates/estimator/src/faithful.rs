@@ -61,7 +61,9 @@ impl CellTrig {
     /// N_φ).
     pub fn strided(hemi: &Hemisphere, stride: usize) -> CellTrig {
         assert!(
-            stride >= 1 && hemi.n_theta() % stride == 0 && hemi.n_phi() % stride == 0,
+            stride >= 1
+                && hemi.n_theta().is_multiple_of(stride)
+                && hemi.n_phi().is_multiple_of(stride),
             "the stride divides the resolution"
         );
         let (n_theta, n_phi) = (hemi.n_theta() / stride, hemi.n_phi() / stride);
@@ -242,34 +244,30 @@ struct SectorTerms<'a> {
     sp: &'a [f32],
 }
 
-/// A ring's pass output: the first-order destination (or `NOWHERE`, or `EXACT_PATH`
-/// where the test fails), the squared distance the z-buffer compares, and the exact
-/// path's q, cos²θ and sector coordinate.
+/// A ring's pass output: each point's cell (or `NOWHERE`, or `EXACT_PATH` where the
+/// exact path must correct the polynomial angles) and the squared distance the z-buffer
+/// compares.
 struct RingOut<'a> {
     dest: &'a mut [u32],
-    /// The exact path's cell from the polynomial angles alone, uncorrected: off by one
-    /// cell for points within about 1e-5 rad of a cell edge (`NOWHERE` below the plane).
-    rough: &'a mut [u32],
-    /// Whether the rough cell is certainly the exact one: both angles lie over
-    /// `EDGE_MARGIN` rad from every edge (ten times the polynomial's error); false at
-    /// resolutions finer than `FAST_PATH_MIN_CELL`.
-    sure: &'a mut [bool],
     dist2: &'a mut [f32],
-    q: [&'a mut [f32]; 3],
-    c2: &'a mut [f32],
-    x: &'a mut [f32],
 }
 
-/// Destinations of a ring's points, branch-free so that it vectorises: first order,
-/// θ index `i + ½ − (cosθ a_j − sinθ d_z) / (R Δθ)`, φ index `j + ½ − b_j / (R sinθ Δφ)`
-/// (a point that fails the threshold test, crosses the pole or moves over half a turn
-/// is marked `EXACT_PATH`); and the exact path's terms, `q = R ω − d`, for every point.
+/// Destinations of a ring's points, branch-free so that it vectorises. First order:
+/// θ index `i + ½ − (cosθ a_j − sinθ d_z) / (R Δθ)`, φ index `j + ½ − b_j / (R sinθ Δφ)`;
+/// a point that fails the threshold test, crosses the pole or moves over half a turn
+/// takes the exact path, `q = R ω − d`: its rough cell, from the polynomial angles
+/// alone, is off by one cell for points within about 1e-5 rad of a cell edge. A point
+/// at infinity stays in its cell, `ring + j`.
 ///
-/// With `ROUGH`, `dest` and `dist2` get each point's final cell and squared distance
-/// (the rough cell on the exact path; a point at infinity stays in cell `ring + j`) and
-/// nothing else is written.
+/// With `ROUGH` every point gets its rough cell on the exact path. Without, only where
+/// both angles lie over `EDGE_MARGIN` rad from every edge (ten times the polynomial's
+/// error; never at resolutions finer than `FAST_PATH_MIN_CELL`), the other points are
+/// marked `EXACT_PATH` for [`exact_path_cell`].
+///
+/// Without `FIRST` no point takes the first-order path (for rings where none is far
+/// enough): the same answers, without computing it.
 #[inline(always)]
-fn ring_pass_body<const ROUGH: bool>(
+fn ring_pass_body<const ROUGH: bool, const FIRST: bool>(
     r: &[f32],
     t: &SectorTerms,
     p: &RingParams,
@@ -287,13 +285,6 @@ fn ring_pass_body<const ROUGH: bool>(
         &t.sp[..n],
     );
     let (dest, dist2) = (&mut out.dest[..n], &mut out.dist2[..n]);
-    // (Empty unless written: only the exact path's corrections read them.)
-    let m = if ROUGH { 0 } else { n };
-    let rough = &mut out.rough[..m];
-    let sure = &mut out.sure[..m];
-    let (c2s, xs) = (&mut out.c2[..m], &mut out.x[..m]);
-    let [q0s, q1s, q2s] = out.q;
-    let (q0s, q1s, q2s) = (&mut q0s[..m], &mut q1s[..m], &mut q2s[..m]);
     let (nf, ntf) = (n as f32, p.n_theta as f32);
     let d = p.d;
     for j in 0..n {
@@ -302,7 +293,7 @@ fn ring_pass_body<const ROUGH: bool>(
         let fi = p.fi0 - (p.ct * ka[j] - p.kd) * inv_r;
         let fj = jc[j] - kb[j] * p.inv_st * inv_r;
         let r1 = r - (p.st * a[j] + p.ct * d[2]);
-        let ok = (r > p.near_limit) & (fi >= 0.0) & (fj > -0.5 * nf) & (fj < 1.5 * nf);
+        let ok = FIRST && (r > p.near_limit) & (fi >= 0.0) & (fj > -0.5 * nf) & (fj < 1.5 * nf);
         let below = fi >= ntf;
         // Clamped in f32 (`max` drops NaN) so that truncation is in range; cells out
         // of range are already marked by `ok` and `below`.
@@ -314,7 +305,7 @@ fn ring_pass_body<const ROUGH: bool>(
         kj += if kj < 0 { n as i32 } else { 0 };
         kj -= if kj >= n as i32 { n as i32 } else { 0 };
         let cell = (ki as u32).wrapping_mul(n as u32).wrapping_add(kj as u32);
-        // Exact: q = R ω − d.
+        // Exact: q = R ω − d (as `exact_path_cell` computes it).
         let rs = r * p.st;
         let q0 = rs * cp[j] - d[0];
         let q1 = rs * sp[j] - d[1];
@@ -335,34 +326,45 @@ fn ring_pass_body<const ROUGH: bool>(
         } else {
             NOWHERE
         };
+        let sure = ROUGH || {
+            let (fk, fl) = (th_c - rk as f32, x_c - (x_c as i32) as f32);
+            p.fast
+                & (fk > p.margin_k)
+                & (fk < 1.0 - p.margin_k)
+                & (fl > p.margin_l)
+                & (fl < 1.0 - p.margin_l)
+                & (th < ntf - 1.0)
+        };
         let first_order = if below { NOWHERE } else { cell };
-        let d2 = if ok { r1 * r1 } else { r2 };
-        if ROUGH {
-            let finite = r.is_finite();
-            dest[j] = match (ok, finite) {
-                (true, _) => first_order,
-                (false, true) => rough_cell,
-                (false, false) => ring + j as u32,
-            };
-            dist2[j] = if !ok && !finite { f32::INFINITY } else { d2 };
-            continue;
-        }
-        let (fk, fl) = (th_c - rk as f32, x_c - (x_c as i32) as f32);
-        sure[j] = p.fast
-            & (fk > p.margin_k)
-            & (fk < 1.0 - p.margin_k)
-            & (fl > p.margin_l)
-            & (fl < 1.0 - p.margin_l)
-            & (th < ntf - 1.0);
-        rough[j] = rough_cell;
-        c2s[j] = q2 * q2 / r2;
-        xs[j] = x;
-        q0s[j] = q0;
-        q1s[j] = q1;
-        q2s[j] = q2;
-        dest[j] = if ok { first_order } else { EXACT_PATH };
-        dist2[j] = d2;
+        let finite = r.is_finite();
+        dest[j] = match (ok, finite, sure) {
+            (true, _, _) => first_order,
+            (false, true, true) => rough_cell,
+            (false, true, false) => EXACT_PATH,
+            (false, false, _) => ring + j as u32,
+        };
+        dist2[j] = match (ok, finite) {
+            (true, _) => r1 * r1,
+            (false, true) => r2,
+            (false, false) => f32::INFINITY,
+        };
     }
+}
+
+/// The exact cell of point `j` of a ring that [`ring_pass_body`] left `EXACT_PATH`:
+/// the same `q` (to the bit), its angles corrected against the cell edges.
+#[inline]
+fn exact_path_cell(trig: &CellTrig, r: f32, t: &SectorTerms, p: &RingParams, j: usize) -> u32 {
+    let rs = r * p.st;
+    let q0 = rs * t.cp[j] - p.d[0];
+    let q1 = rs * t.sp[j] - p.d[1];
+    let q2 = r * p.ct - p.d[2];
+    if !(q2 > 0.0) {
+        return NOWHERE;
+    }
+    let r2 = q0 * q0 + q1 * q1 + q2 * q2;
+    let x = atan2_approx(q1, q0) * p.inv_d_phi - p.shift;
+    trig.cell_from_parts([q0, q1, q2], q2 * q2 / r2, x) as u32
 }
 
 /// [`ring_pass_body`] compiled for AVX2 (8 lanes), chosen at run time where the CPU has
@@ -370,17 +372,17 @@ fn ring_pass_body<const ROUGH: bool>(
 /// answers as the baseline build.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn ring_pass_avx2<const ROUGH: bool>(
+unsafe fn ring_pass_avx2<const ROUGH: bool, const FIRST: bool>(
     r: &[f32],
     t: &SectorTerms,
     p: &RingParams,
     ring: u32,
     out: RingOut,
 ) {
-    ring_pass_body::<ROUGH>(r, t, p, ring, out)
+    ring_pass_body::<ROUGH, FIRST>(r, t, p, ring, out)
 }
 
-fn ring_pass<const ROUGH: bool>(
+fn ring_pass_with<const ROUGH: bool, const FIRST: bool>(
     avx2: bool,
     r: &[f32],
     t: &SectorTerms,
@@ -391,10 +393,31 @@ fn ring_pass<const ROUGH: bool>(
     #[cfg(target_arch = "x86_64")]
     if avx2 {
         // SAFETY: the caller checked that the CPU has AVX2.
-        return unsafe { ring_pass_avx2::<ROUGH>(r, t, p, ring, out) };
+        return unsafe { ring_pass_avx2::<ROUGH, FIRST>(r, t, p, ring, out) };
     }
     let _ = avx2;
-    ring_pass_body::<ROUGH>(r, t, p, ring, out)
+    ring_pass_body::<ROUGH, FIRST>(r, t, p, ring, out)
+}
+
+/// [`ring_pass_body`] (AVX2 where `avx2`), `first` telling whether any point may take
+/// the first-order path (`false` only where none is beyond `p.near_limit`).
+#[allow(clippy::too_many_arguments)]
+fn ring_pass(
+    avx2: bool,
+    rough: bool,
+    first: bool,
+    r: &[f32],
+    t: &SectorTerms,
+    p: &RingParams,
+    ring: u32,
+    out: RingOut,
+) {
+    match (rough, first) {
+        (true, true) => ring_pass_with::<true, true>(avx2, r, t, p, ring, out),
+        (true, false) => ring_pass_with::<true, false>(avx2, r, t, p, ring, out),
+        (false, true) => ring_pass_with::<false, true>(avx2, r, t, p, ring, out),
+        (false, false) => ring_pass_with::<false, false>(avx2, r, t, p, ring, out),
+    }
 }
 
 /// The motion from `from`'s centre to `to`'s, in their polygon's frame.
@@ -464,14 +487,6 @@ pub(crate) fn splat(
     // z-buffered writes. The z-buffer holds squared distances until the end.
     let mut dest = vec![NOWHERE; n_phi];
     let mut dist2 = vec![0.0f32; n_phi];
-    let (mut q0s, mut q1s, mut q2s) = (
-        vec![0.0f32; n_phi],
-        vec![0.0f32; n_phi],
-        vec![0.0f32; n_phi],
-    );
-    let (mut c2s, mut xs) = (vec![0.0f32; n_phi], vec![0.0f32; n_phi]);
-    let mut roughs = vec![NOWHERE; n_phi];
-    let mut sures = vec![false; n_phi];
     let project = |i: usize, j: usize, r: f32| -> (u32, f32) {
         let (st, ct) = (trig.st[i], trig.ct[i]);
         let far_scale = if lateral {
@@ -531,8 +546,8 @@ pub(crate) fn splat(
     };
     let avx2 = rad_core::has_avx2();
     let has_lists = src.has_lists();
-    // Cursor in the extras (by cell), and every point's cell of a ring.
-    let (mut extra, mut cell_of) = (0, vec![NOWHERE; n_phi]);
+    // Cursor in the extras (by cell).
+    let mut extra = 0;
     for i in 0..trig.n_theta {
         let ring = i * n_phi;
         let (r, src_values) = (
@@ -583,61 +598,21 @@ pub(crate) fn splat(
         };
         let out = RingOut {
             dest: &mut dest,
-            rough: &mut roughs,
-            sure: &mut sures,
             dist2: &mut dist2,
-            q: [&mut q0s, &mut q1s, &mut q2s],
-            c2: &mut c2s,
-            x: &mut xs,
         };
         let n = n_phi;
-        let (src_values, src_dist) = (&src_values[..n], &r[..n]);
-        if rough && !has_lists {
-            // The rough destinations need no edge corrections: every point's cell and
-            // distance from the branch-free pass, then only the z-buffered writes.
-            ring_pass::<true>(avx2, r, &terms, &params, ring as u32, out);
-            let (dest, dist2) = (&dest[..n], &dist2[..n]);
-            for j in 0..n {
-                put(dest[j], dist2[j], src_values[j]);
-            }
-            extras.extend(
-                ring_extras
-                    .iter()
-                    .map(|&(c, v)| (dest[c as usize - ring], v))
-                    .filter(|e| e.0 != NOWHERE),
-            );
-            continue;
-        }
-        ring_pass::<false>(avx2, r, &terms, &params, ring as u32, out);
-        // Equal-length slices of the ring (no bounds checks in the loop).
-        let (roughs, sures) = (&roughs[..n], &sures[..n]);
-        let (dest, dist2, q0s, q1s, q2s, c2s, xs) = (
-            &dest[..n],
-            &dist2[..n],
-            &q0s[..n],
-            &q1s[..n],
-            &q2s[..n],
-            &c2s[..n],
-            &xs[..n],
-        );
+        let src_values = &src_values[..n];
+        // Every point's cell and distance from the branch-free pass (rough cells need no
+        // corrections), the few points left to the exact path corrected, then the
+        // z-buffered writes.
+        let first = r.iter().any(|&r| r > params.near_limit);
+        ring_pass(avx2, rough, first, r, &terms, &params, ring as u32, out);
+        let (dest, dist2) = (&mut dest[..n], &dist2[..n]);
         for j in 0..n {
-            let (cell, r2) = if dest[j] == EXACT_PATH {
-                let r = src_dist[j];
-                if !r.is_finite() {
-                    project(i, j, r)
-                } else if rough || sures[j] {
-                    (roughs[j], dist2[j])
-                } else if q2s[j] > 0.0 {
-                    let q = [q0s[j], q1s[j], q2s[j]];
-                    (trig.cell_from_parts(q, c2s[j], xs[j]) as u32, dist2[j])
-                } else {
-                    (NOWHERE, dist2[j])
-                }
-            } else {
-                (dest[j], dist2[j])
-            };
-            put(cell, r2, src_values[j]);
-            cell_of[j] = cell;
+            if dest[j] == EXACT_PATH {
+                dest[j] = exact_path_cell(trig, r[j], &terms, &params, j);
+            }
+            put(dest[j], dist2[j], src_values[j]);
             if has_lists {
                 for &(id, r) in src.list(src_cell(j)) {
                     let (cell, r2) = project(i, j, r);
@@ -648,7 +623,7 @@ pub(crate) fn splat(
         extras.extend(
             ring_extras
                 .iter()
-                .map(|&(c, v)| (cell_of[c as usize - ring], v))
+                .map(|&(c, v)| (dest[c as usize - ring], v))
                 .filter(|e| e.0 != NOWHERE),
         );
     }
@@ -698,23 +673,37 @@ pub(crate) fn fill_holes(
         // Each run of holes takes, cell by cell, the nearer of the written cells that
         // bound it (wrapping round the ring); the lower φ (left) wins ties, as a search
         // alternating left first would. Positions run from the first written cell over
-        // one turn (`at` wraps them).
+        // one turn (`at` wraps them); runs are found by slice searches.
         let first = ring
             .iter()
             .position(|&id| id != HOLE)
             .expect("the ring has a written cell");
         let at = |p: usize| if p < n { p } else { p - n };
-        let mut j = first;
-        while j < first + n {
-            let mut k = j + 1;
-            while k < first + n && ring[at(k)] == HOLE {
-                k += 1;
+        // The first position in [a, b) (b ≤ a + n) whose cell is (or is not) a hole.
+        let find = |ring: &[PatchId], a: usize, b: usize, hole: bool| -> Option<usize> {
+            let is = |id: &PatchId| (*id == HOLE) == hole;
+            let (a1, b1) = (at(a), at(a) + (b - a));
+            if b1 <= n {
+                ring[a1..b1].iter().position(is).map(|q| a + q)
+            } else {
+                ring[a1..]
+                    .iter()
+                    .position(is)
+                    .map(|q| a + q)
+                    .or_else(|| ring[..b1 - n].iter().position(is).map(|q| a + (n - a1) + q))
             }
-            if k > j + 1 {
-                let (lv, rv) = (ring[at(j)], ring[at(k)]);
-                for h in j + 1..k {
-                    ring[at(h)] = if h - j <= k - h { lv } else { rv };
-                }
+        };
+        let mut j = first;
+        while j + 1 < first + n {
+            let Some(h) = find(ring, j + 1, first + n, true) else {
+                break;
+            };
+            // Holes h..k, between the written cells h − 1 and k (k = first + n: `first`).
+            let k = find(ring, h, first + n, false).unwrap_or(first + n);
+            let (lv, rv) = (ring[at(h - 1)], ring[at(k)]);
+            let split = h - 1 + (k - (h - 1)) / 2;
+            for p in h..k {
+                ring[at(p)] = if p <= split { lv } else { rv };
             }
             j = k;
         }
@@ -747,7 +736,7 @@ impl<'h> Estimator<'h> {
         let max = stride.min(self.strided.len() + 1);
         match (2..=max)
             .rev()
-            .find(|&s| h.n_theta() % s == 0 && h.n_phi() % s == 0)
+            .find(|&s| h.n_theta().is_multiple_of(s) && h.n_phi().is_multiple_of(s))
         {
             Some(s) => self.strided[s - 2].get_or_init(|| CellTrig::strided(h, s)),
             None => &self.trig,

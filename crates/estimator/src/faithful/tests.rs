@@ -136,87 +136,67 @@ fn the_avx2_ring_pass_gives_the_baseline_answers_bit_for_bit() {
             margin_k: 0.0115,
             margin_l: 0.0115,
         };
-        let run = |avx2: bool| {
-            let (mut dest, mut d2, mut rough) = (vec![0u32; n], vec![0f32; n], vec![0u32; n]);
-            let mut sure = vec![false; n];
-            let (mut q0, mut q1, mut q2) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
-            let (mut c2, mut x) = (vec![0f32; n], vec![0f32; n]);
-            ring_pass::<false>(
-                avx2,
-                &r,
-                &terms,
-                &params,
-                0,
-                RingOut {
-                    dest: &mut dest,
-                    rough: &mut rough,
-                    sure: &mut sure,
-                    dist2: &mut d2,
-                    q: [&mut q0, &mut q1, &mut q2],
-                    c2: &mut c2,
-                    x: &mut x,
-                },
-            );
-            let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<u32>>();
-            (
-                dest,
-                rough,
-                sure,
-                bits(&d2),
-                bits(&q0),
-                bits(&q1),
-                bits(&q2),
-                bits(&c2),
-                bits(&x),
-            )
-        };
-        assert!(
-            run(true) == run(false),
-            "the AVX2 pass differs from the baseline at sinθ = {st}"
-        );
-        // The rough pass gives what the full pass's outputs select, both builds.
-        let (dest, rough, _, d2, ..) = run(false);
         let ring = 7 * n as u32;
-        let want: Vec<(u32, u32)> = (0..n)
-            .map(|j| match (dest[j] == EXACT_PATH, r[j].is_finite()) {
-                (false, _) => (dest[j], d2[j]),
-                (true, true) => (rough[j], d2[j]),
-                (true, false) => (ring + j as u32, f32::INFINITY.to_bits()),
-            })
-            .collect();
-        for avx2 in [false, true] {
+        let run = |avx2: bool, rough: bool| {
             let (mut dest, mut d2) = (vec![0u32; n], vec![0f32; n]);
-            let mut none = [Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new()];
-            let [q0, q1, q2, c2, x] = &mut none;
-            ring_pass::<true>(
-                avx2 && rad_core::has_avx2(),
-                &r,
-                &terms,
-                &params,
-                ring,
-                RingOut {
-                    dest: &mut dest,
-                    rough: &mut [],
-                    sure: &mut [],
-                    dist2: &mut d2,
-                    q: [q0, q1, q2],
-                    c2,
-                    x,
-                },
+            let out = RingOut {
+                dest: &mut dest,
+                dist2: &mut d2,
+            };
+            ring_pass(avx2, rough, true, &r, &terms, &params, ring, out);
+            (dest, d2.iter().map(|f| f.to_bits()).collect::<Vec<u32>>())
+        };
+        for rough in [false, true] {
+            assert!(
+                run(true, rough) == run(false, rough),
+                "the AVX2 pass differs from the baseline at sinθ = {st} (rough: {rough})"
             );
-            let got: Vec<(u32, u32)> = dest
-                .iter()
-                .zip(&d2)
-                .map(|(&c, d)| (c, d.to_bits()))
-                .collect();
-            assert!(got == want, "the rough pass differs at sinθ = {st}");
+            // Where no point is beyond the near limit, the pass without the first-order
+            // path gives the same answers.
+            let near = RingParams {
+                near_limit: f32::INFINITY,
+                ..params
+            };
+            for avx2 in [false, true] {
+                let pass = |first: bool| {
+                    let (mut dest, mut d2) = (vec![0u32; n], vec![0f32; n]);
+                    let out = RingOut {
+                        dest: &mut dest,
+                        dist2: &mut d2,
+                    };
+                    ring_pass(avx2, rough, first, &r, &terms, &near, ring, out);
+                    (dest, d2.iter().map(|f| f.to_bits()).collect::<Vec<u32>>())
+                };
+                assert!(
+                    pass(true) == pass(false),
+                    "without first order, sinθ = {st}"
+                );
+            }
         }
+        // The rough pass gives the full pass's answers where it has them, and every
+        // kind of answer occurs.
+        let (full, d_full) = run(false, false);
+        let (rough, d_rough) = run(false, true);
+        assert_eq!(d_full, d_rough);
+        let mut exact_path = 0;
+        for j in 0..n {
+            if full[j] == EXACT_PATH {
+                exact_path += 1;
+                assert!(rough[j] != EXACT_PATH);
+            } else {
+                assert_eq!(full[j], rough[j], "point {j} at sinθ = {st}");
+            }
+        }
+        assert!(
+            exact_path > 0,
+            "no point left to the exact path at sinθ = {st}"
+        );
     }
 }
 
 #[test]
 fn rough_cells_are_exact_away_from_edges_and_at_most_one_off_near_them() {
-    use super::{ring_pass, RingOut, RingParams, SectorTerms, NOWHERE};
+    use super::{exact_path_cell, ring_pass, RingOut, RingParams, SectorTerms, NOWHERE};
     let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).unwrap();
     let trig = CellTrig::new(&hemi);
     let n = 720;
@@ -258,29 +238,36 @@ fn rough_cells_are_exact_away_from_edges_and_at_most_one_off_near_them() {
             margin_k: super::EDGE_MARGIN * trig.inv_d_theta,
             margin_l: super::EDGE_MARGIN * trig.inv_d_phi,
         };
-        let (mut dest, mut d2, mut rough) = (vec![0u32; n], vec![0f32; n], vec![0u32; n]);
-        let mut sure = vec![false; n];
-        let (mut q0, mut q1, mut q2) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
-        let (mut c2, mut x) = (vec![0f32; n], vec![0f32; n]);
-        ring_pass::<false>(
-            rad_core::has_avx2(),
-            &r,
-            &terms,
-            &params,
-            0,
-            RingOut {
+        let run = |rough: bool| {
+            let (mut dest, mut d2) = (vec![0u32; n], vec![0f32; n]);
+            let out = RingOut {
                 dest: &mut dest,
-                rough: &mut rough,
-                sure: &mut sure,
                 dist2: &mut d2,
-                q: [&mut q0, &mut q1, &mut q2],
-                c2: &mut c2,
-                x: &mut x,
-            },
-        );
+            };
+            ring_pass(
+                rad_core::has_avx2(),
+                rough,
+                false,
+                &r,
+                &terms,
+                &params,
+                0,
+                out,
+            );
+            dest
+        };
+        let (rough, full) = (run(true), run(false));
         for j in 0..n {
-            let q = [q0[j], q1[j], q2[j]];
+            let rs = r[j] * params.st;
+            let q = [
+                rs * trig.cp[j] - d[0],
+                rs * trig.sp[j] - d[1],
+                r[j] * params.ct - d[2],
+            ];
             let exact = trig.cell_of_vector(q, q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+            // The exact path's correction gives the exact cell.
+            let corrected = exact_path_cell(&trig, r[j], &terms, &params, j);
+            assert_eq!(exact.map_or(NOWHERE, |c| c as u32), corrected);
             match exact {
                 None => assert_eq!(rough[j], NOWHERE),
                 Some(c) => {
@@ -293,9 +280,10 @@ fn rough_cells_are_exact_away_from_edges_and_at_most_one_off_near_them() {
                         "ring {k} vs {rk}, sector {l} vs {rl}"
                     );
                     same += usize::from(c == rough[j] as usize);
-                    // Far from every edge, the rough cell is the exact one.
-                    if sure[j] {
-                        assert_eq!(c, rough[j] as usize, "a sure rough cell is wrong");
+                    // Far from every edge (not left to the exact path), the rough cell
+                    // is the exact one.
+                    if full[j] != EXACT_PATH {
+                        assert_eq!(c, full[j] as usize, "a sure rough cell is wrong");
                         sure_n += 1;
                     }
                 }
