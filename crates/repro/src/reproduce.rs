@@ -693,7 +693,7 @@ impl Reproduction {
         }
         let _ = writeln!(w, "\nThe report: 5.73 s per estimation against 37.65 s per exact hemisphere, a ratio of 0.152. \
             The ratios are against ray casting through the voxel grid, as the report's were. The polygon scan makes the same exact \
-            item buffers (to the bit) without rays through a grid; against it, estimation does not pay (last two columns, over 1 means \
-            the estimate costs more than the exact hemisphere).");
+            item buffers (to the bit) without rays through a grid; the last two columns compare the estimates with it (over 1: the \
+            estimate costs more than the exact hemisphere by scan).");
     }
 }
