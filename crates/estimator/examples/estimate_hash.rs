@@ -57,6 +57,7 @@ fn main() {
                 ..config
             };
             let (mut real, mut real3, mut n) = (0, 0, 0);
+            let mut e3 = rad_estimator::ImprovedEstimate::default();
             let t = std::time::Instant::now();
             for k in 0..12 {
                 let w = &all[(k * 509 + 100) % all.len()];
@@ -75,7 +76,9 @@ fn main() {
                         guess_stride: 3,
                         ..config
                     };
-                    let e = est.improved(&scene, &grid, &src, p, &coarse, &mut scratch);
+                    // (Into a reused estimate: the hash checks that reuse too.)
+                    est.improved_into(&scene, &grid, &src, p, &coarse, &mut scratch, &mut e3);
+                    let e = &e3;
                     e.items.patch.hash(&mut h3);
                     for d in &e.items.dist {
                         d.to_bits().hash(&mut h3);

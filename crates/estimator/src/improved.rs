@@ -321,10 +321,9 @@ impl Estimator<'_> {
         // 4. The nearest hit if it is a front one (runs of cells with one polygon looked
         // up together); otherwise (a back face nearest, or no guess hit) a real ray.
         let n_cells = hemi.n_cells();
+        // (`items` writes every cell, the real rays' below: no need to clear.)
         let (patch, dist) = (&mut out.items.patch, &mut out.items.dist);
-        patch.clear();
         patch.resize(n_cells, ESCAPED);
-        dist.clear();
         dist.resize(n_cells, f32::INFINITY);
         let real = &mut w.real;
         real.clear();
