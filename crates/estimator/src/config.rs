@@ -58,7 +58,8 @@ pub struct EstimatorConfig {
     /// both N_θ and N_φ. At 1 every point of H1 is splatted and each cell is tested
     /// against the guesses of its 3 × 3 cells; at s > 1 the points of H1's cells
     /// (sI, sJ) are splatted and each cell is tested against the guesses of the 3 × 3
-    /// coarse cells around its own.
+    /// coarse cells around its own. (With boundary lists, only the lists of the cell
+    /// whose point stands for its s × s cells are splatted.)
     pub guess_stride: u32,
 }
 

@@ -58,12 +58,13 @@ impl CellTrig {
     }
 
     /// The tables of the grid s times coarser both ways (`stride` must divide N_θ and
-    /// N_φ).
+    /// N_φ). (`%`, not `is_multiple_of`: the workspace builds on Rust 1.83.)
+    #[allow(clippy::manual_is_multiple_of)]
     pub fn strided(hemi: &Hemisphere, stride: usize) -> CellTrig {
         assert!(
             stride >= 1
-                && hemi.n_theta().is_multiple_of(stride)
-                && hemi.n_phi().is_multiple_of(stride),
+                && hemi.n_theta() % stride == 0
+                && hemi.n_phi() % stride == 0,
             "the stride divides the resolution"
         );
         let (n_theta, n_phi) = (hemi.n_theta() / stride, hemi.n_phi() / stride);
@@ -731,12 +732,13 @@ impl<'h> Estimator<'h> {
 
     /// The tables of the grid s times coarser, s the largest stride up to `stride`
     /// (and `MAX_GUESS_STRIDE`) that divides the resolution both ways.
+    #[allow(clippy::manual_is_multiple_of)]
     pub(crate) fn trig_strided(&self, stride: usize) -> &CellTrig {
         let h = self.hemi;
         let max = stride.min(self.strided.len() + 1);
         match (2..=max)
             .rev()
-            .find(|&s| h.n_theta().is_multiple_of(s) && h.n_phi().is_multiple_of(s))
+            .find(|&s| h.n_theta() % s == 0 && h.n_phi() % s == 0)
         {
             Some(s) => self.strided[s - 2].get_or_init(|| CellTrig::strided(h, s)),
             None => &self.trig,
