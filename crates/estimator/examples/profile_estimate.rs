@@ -1,5 +1,5 @@
 //! Estimates hemispheres at 180 × 720 in one mode, for instruction counts under
-//! `valgrind --tool=callgrind`: `MODE=faithful|improved SCENE=loft|cube [GUESS=3] [SHARE=0.05] cargo run
+//! `valgrind --tool=callgrind`: `MODE=none|exact|faithful|improved SCENE=loft|cube [GUESS=3] [SHARE=0.05] cargo run
 //! --release -p rad-estimator --example profile_estimate`.
 
 use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
@@ -13,10 +13,16 @@ use rad_geometry::Scene;
 use rad_hemisphere::{Hemisphere, HemisphereConfig};
 
 fn main() {
+    // MODE=exact casts the same hemispheres through the grid (the estimates' baseline);
+    // MODE=none does only the set-up and the sources (to subtract from instruction
+    // counts).
+    let exact = std::env::var("MODE").as_deref() == Ok("exact");
+    let none = std::env::var("MODE").as_deref() == Ok("none");
     let mode = match std::env::var("MODE").as_deref() {
         Ok("faithful") => Mode::Faithful,
         _ => Mode::Improved,
     };
+    let mut exact_buf = rad_hemisphere::ItemBuffer::default();
     let config = EstimatorConfig {
         mode,
         fill: HoleFill::RingNeighbour,
@@ -57,12 +63,26 @@ fn main() {
         for &p in &w.estimated {
             let t = std::time::Instant::now();
             let n = match mode {
+                _ if none => 0,
+                _ if exact => {
+                    hemi.cast(&scene, &grid, p, &mut scratch, &mut exact_buf);
+                    exact_buf.patch.len()
+                }
                 Mode::Faithful => {
                     est.faithful_into(&scene, &src, p, &config, &mut faithful);
                     faithful.items.patch.len()
                 }
                 Mode::Improved => {
-                    est.improved_into(&scene, &grid, &src, p, &config, &mut scratch, &mut improved);
+                    // Abandoned estimates cast exactly, as the schedule and the bench do.
+                    est.improved_or_cast_into(
+                        &scene,
+                        &grid,
+                        &src,
+                        p,
+                        &config,
+                        &mut scratch,
+                        &mut improved,
+                    );
                     tests += improved.tests;
                     real += improved.real_rays;
                     holes += improved.holes;

@@ -62,9 +62,7 @@ impl CellTrig {
     #[allow(clippy::manual_is_multiple_of)]
     pub fn strided(hemi: &Hemisphere, stride: usize) -> CellTrig {
         assert!(
-            stride >= 1
-                && hemi.n_theta() % stride == 0
-                && hemi.n_phi() % stride == 0,
+            stride >= 1 && hemi.n_theta() % stride == 0 && hemi.n_phi() % stride == 0,
             "the stride divides the resolution"
         );
         let (n_theta, n_phi) = (hemi.n_theta() / stride, hemi.n_phi() / stride);
