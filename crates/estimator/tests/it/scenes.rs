@@ -323,46 +323,50 @@ fn improved_mode_abandons_over_its_real_ray_share() {
 #[test]
 fn improved_estimates_do_not_depend_on_the_previous_scene() {
     let hemi = Hemisphere::new(HemisphereConfig::exact(45, 180)).unwrap();
-    let estimate = |desc: rad_geometry::SceneDesc| {
-        let scene = Scene::new(desc).unwrap();
-        let grid = VoxelGrid::build(&scene, &GRID).unwrap();
-        let mut s = grid.new_scratch();
-        let w = windows(&scene)
-            .into_iter()
-            .find(|w| scene.patches()[w.centre as usize].polygon == 0 && !w.estimated.is_empty())
-            .unwrap();
-        let src = SourceHemisphere::cast(&scene, &grid, &hemi, w.centre, false, &mut s);
-        let cfg = EstimatorConfig {
-            max_real_ray_share: 1.0,
-            guess_stride: 1,
-            ..config(Mode::Improved, HoleFill::RingNeighbour, LATERAL, false)
+    for stride in [1, 3] {
+        let estimate = |desc: rad_geometry::SceneDesc| {
+            let scene = Scene::new(desc).unwrap();
+            let grid = VoxelGrid::build(&scene, &GRID).unwrap();
+            let mut s = grid.new_scratch();
+            let w = windows(&scene)
+                .into_iter()
+                .find(|w| {
+                    scene.patches()[w.centre as usize].polygon == 0 && !w.estimated.is_empty()
+                })
+                .unwrap();
+            let src = SourceHemisphere::cast(&scene, &grid, &hemi, w.centre, false, &mut s);
+            let cfg = EstimatorConfig {
+                max_real_ray_share: 1.0,
+                guess_stride: stride,
+                ..config(Mode::Improved, HoleFill::RingNeighbour, LATERAL, false)
+            };
+            Estimator::new(&hemi)
+                .improved(&scene, &grid, &src, w.estimated[0], &cfg, &mut s)
+                .items
         };
-        Estimator::new(&hemi)
-            .improved(&scene, &grid, &src, w.estimated[0], &cfg, &mut s)
-            .items
-    };
-    // The cube with its faces in another order: its polygon 0 is another face.
-    let turned = || {
-        let mut d = cube(10);
-        d.polygons.rotate_left(1);
-        d
-    };
-    // On this thread: the cube, the turned cube, the loft, the cube again.
-    let (c1, t1, l1, c2) = (
-        estimate(cube(10)),
-        estimate(turned()),
-        estimate(loft()),
-        estimate(cube(10)),
-    );
-    // Each on a fresh thread.
-    let fresh = |f: &(dyn Fn() -> rad_geometry::SceneDesc + Sync)| {
-        std::thread::scope(|t| t.spawn(|| estimate(f())).join().unwrap())
-    };
-    // (Compared whole, without printing 8,100 cells on failure.)
-    assert!(t1 == fresh(&turned), "turned cube differs");
-    assert!(l1 == fresh(&loft), "loft differs");
-    assert!(c1 == fresh(&|| cube(10)), "cube differs");
-    assert!(c2 == c1, "cube differs the second time");
+        // The cube with its faces in another order: its polygon 0 is another face.
+        let turned = || {
+            let mut d = cube(10);
+            d.polygons.rotate_left(1);
+            d
+        };
+        // On this thread: the cube, the turned cube, the loft, the cube again.
+        let (c1, t1, l1, c2) = (
+            estimate(cube(10)),
+            estimate(turned()),
+            estimate(loft()),
+            estimate(cube(10)),
+        );
+        // Each on a fresh thread.
+        let fresh = |f: &(dyn Fn() -> rad_geometry::SceneDesc + Sync)| {
+            std::thread::scope(|t| t.spawn(|| estimate(f())).join().unwrap())
+        };
+        // (Compared whole, without printing 8,100 cells on failure.)
+        assert!(t1 == fresh(&turned), "turned cube differs");
+        assert!(l1 == fresh(&loft), "loft differs");
+        assert!(c1 == fresh(&|| cube(10)), "cube differs");
+        assert!(c2 == c1, "cube differs the second time");
+    }
 }
 
 /// Settings out of range are refused by name before any work, by the schedule too.
