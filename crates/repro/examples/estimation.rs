@@ -1,11 +1,14 @@
 //! Runs the estimation-error experiment on one scene and prints a line per setting:
 //! `cargo run --release -p rad-repro --example estimation -- cube 180x720 [quick]`
-//! (`ONLY=improved` keeps the settings whose name holds that text; the loft's windows
-//! are those of the reproduction's polygons).
+//! (`ONLY=improved` keeps the settings whose name holds that text;
+//! `IMPROVED=3:0.05,3:1` runs improved mode's default with those guess strides and
+//! real-ray shares instead; the loft's windows are those of the reproduction's
+//! polygons).
 
+use rad_estimator::Mode;
 use rad_geometry::scenes::{cube, loft};
 use rad_geometry::Scene;
-use rad_repro::estimation::{scene_estimation, settings};
+use rad_repro::estimation::{scene_estimation, settings, Setting};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -23,10 +26,29 @@ fn main() {
         (nt, np),
         polys.as_deref(),
         scene_name == "cube",
-        &settings(quick)
-            .into_iter()
-            .filter(|s| std::env::var("ONLY").map_or(true, |o| s.name.contains(&o)))
-            .collect::<Vec<_>>(),
+        &std::env::var("IMPROVED").map_or_else(
+            |_| {
+                settings(quick)
+                    .into_iter()
+                    .filter(|s| std::env::var("ONLY").map_or(true, |o| s.name.contains(&o)))
+                    .collect::<Vec<_>>()
+            },
+            |list| {
+                // IMPROVED=stride:share,...: improved mode's default with these.
+                list.split(',')
+                    .map(|item| {
+                        let (stride, share) = item.split_once(':').expect("stride:share");
+                        let mut config = rad_repro::default_estimator(Mode::Improved);
+                        config.guess_stride = stride.parse().expect("a stride");
+                        config.max_real_ray_share = share.parse().expect("a share");
+                        Setting {
+                            name: format!("improved, guesses /{stride}, real rays <= {share}"),
+                            config,
+                        }
+                    })
+                    .collect()
+            },
+        ),
         &|_, _| {},
     )
     .unwrap();
