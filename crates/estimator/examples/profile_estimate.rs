@@ -56,7 +56,7 @@ fn main() {
         .map(|w| w.parse().unwrap())
         .unwrap_or(4);
     let (mut faithful, mut improved) = Default::default();
-    let (mut tests, mut real, mut holes, mut n_est) = (0, 0, 0, 0);
+    let (mut tests, mut real, mut holes, mut n_est, mut abandoned) = (0, 0, 0, 0, 0);
     for k in 0..windows_used {
         let w = &all[(k * 509 + 100) % all.len()];
         let src = SourceHemisphere::cast(&scene, &grid, &hemi, w.centre, false, &mut scratch);
@@ -87,6 +87,7 @@ fn main() {
                     real += improved.real_rays;
                     holes += improved.holes;
                     n_est += 1;
+                    abandoned += usize::from(improved.abandoned);
                     improved.items.patch.len()
                 }
             };
@@ -97,7 +98,7 @@ fn main() {
     if n_est > 0 {
         let per = |x: usize| x as f64 / n_est as f64 / hemi.n_cells() as f64;
         println!(
-            "improved: {:.3} tests, {:.4} real rays, {:.3} holes a cell",
+            "improved: {:.3} tests, {:.4} real rays, {:.3} holes a cell; {abandoned} of {n_est} cast exactly",
             per(tests),
             per(real),
             per(holes)
