@@ -24,6 +24,17 @@ pub struct VoxelGridConfig {
     pub resolution: GridResolution,
 }
 
+impl VoxelGridConfig {
+    /// The grid used unless told otherwise: about 4 voxels per polygon, at most 256 a
+    /// side (measured best on the loft at 180 × 720; see ARCHITECTURE.md).
+    pub const DEFAULT: VoxelGridConfig = VoxelGridConfig {
+        resolution: GridResolution::Auto {
+            density: 4.0,
+            max_per_axis: 256,
+        },
+    };
+}
+
 /// What an intersection reads of a polygon, packed in 64 bytes: the plane, the dual
 /// basis giving (u, v) (`u = p·du − du_off`), and the (u, v) bounds.
 #[derive(Clone, Copy, Debug)]

@@ -3,7 +3,7 @@
 //! estimated hemisphere against one exact hemisphere, over the same windows.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
+use rad_accel::{VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_estimator::{
     windows, Estimate, Estimator, EstimatorConfig, HoleFill, ImprovedEstimate, Mode, Reprojection,
@@ -14,12 +14,7 @@ use rad_geometry::Scene;
 use rad_hemisphere::{Hemisphere, HemisphereConfig, ItemBuffer};
 use std::hint::black_box;
 
-const GRID: VoxelGridConfig = VoxelGridConfig {
-    resolution: GridResolution::Auto {
-        density: 4.0,
-        max_per_axis: 256,
-    },
-};
+const GRID: VoxelGridConfig = VoxelGridConfig::DEFAULT;
 
 fn config(mode: Mode) -> EstimatorConfig {
     EstimatorConfig {

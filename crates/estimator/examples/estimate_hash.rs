@@ -1,6 +1,6 @@
 //! Hash of estimates (both modes) over windows of the bench scenes, to compare two
 //! builds bit for bit: `cargo run --release -p rad-estimator --example estimate_hash`.
-use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
+use rad_accel::{VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_estimator::{
     windows, Estimator, EstimatorConfig, HoleFill, Mode, Reprojection, SourceHemisphere,
@@ -36,16 +36,7 @@ fn main() {
             ("cornell", cornell_box(CORNELL_PATCH_MM)),
         ] {
             let scene = Scene::new(desc).unwrap();
-            let grid = VoxelGrid::build(
-                &scene,
-                &VoxelGridConfig {
-                    resolution: GridResolution::Auto {
-                        density: 4.0,
-                        max_per_axis: 256,
-                    },
-                },
-            )
-            .unwrap();
+            let grid = VoxelGrid::build(&scene, &VoxelGridConfig::DEFAULT).unwrap();
             let mut scratch = grid.new_scratch();
             let all = windows(&scene);
             let est = Estimator::new(&hemi);

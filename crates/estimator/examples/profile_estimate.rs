@@ -2,7 +2,7 @@
 //! `valgrind --tool=callgrind`: `MODE=none|exact|faithful|improved SCENE=loft|cube [GUESS=3] [SHARE=0.05] cargo run
 //! --release -p rad-estimator --example profile_estimate`.
 
-use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
+use rad_accel::{VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_estimator::{
     windows, Estimator, EstimatorConfig, HoleFill, Mode, Reprojection, SourceHemisphere,
@@ -40,12 +40,7 @@ fn main() {
         _ => Scene::new(loft()),
     }
     .expect("valid scene");
-    let grid_cfg = VoxelGridConfig {
-        resolution: GridResolution::Auto {
-            density: 4.0,
-            max_per_axis: 256,
-        },
-    };
+    let grid_cfg = VoxelGridConfig::DEFAULT;
     let grid = VoxelGrid::build(&scene, &grid_cfg).expect("valid grid");
     let mut scratch = grid.new_scratch();
     let all = windows(&scene);

@@ -3,7 +3,7 @@
 //! default settings (`GUESS=s` for another guess stride): `STRIDE=7 cargo run --release -p rad-estimator --example schedule_cost`
 //! (every STRIDE-th window, whole).
 
-use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
+use rad_accel::{VoxelGrid, VoxelGridConfig};
 use rad_estimator::{
     estimate_rows, windows, EstimatorConfig, HoleFill, Mode, Reprojection, ThresholdTest,
 };
@@ -19,16 +19,7 @@ fn main() {
         _ => Scene::new(loft()),
     }
     .unwrap();
-    let grid = VoxelGrid::build(
-        &scene,
-        &VoxelGridConfig {
-            resolution: GridResolution::Auto {
-                density: 4.0,
-                max_per_axis: 256,
-            },
-        },
-    )
-    .unwrap();
+    let grid = VoxelGrid::build(&scene, &VoxelGridConfig::DEFAULT).unwrap();
     let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).unwrap();
     let patches: Vec<u32> = windows(&scene)
         .iter()

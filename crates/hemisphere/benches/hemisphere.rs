@@ -3,7 +3,7 @@
 //! polygon than the last); throughput in rays (cells).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use rad_accel::{BruteForce, GridResolution, VoxelGrid, VoxelGridConfig};
+use rad_accel::{BruteForce, VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_geometry::scenes::{cube, loft};
 use rad_geometry::Scene;
@@ -11,12 +11,7 @@ use rad_hemisphere::{Hemisphere, HemisphereConfig, ItemBuffer, ScanScratch};
 use std::hint::black_box;
 
 /// The voxel grid of `rad_repro::default_grid` (rad-repro is not a dev-dependency here).
-const GRID: VoxelGridConfig = VoxelGridConfig {
-    resolution: GridResolution::Auto {
-        density: 4.0,
-        max_per_axis: 256,
-    },
-};
+const GRID: VoxelGridConfig = VoxelGridConfig::DEFAULT;
 
 fn spread(scene: &Scene, k: usize) -> Vec<u32> {
     let n = scene.patches().len();

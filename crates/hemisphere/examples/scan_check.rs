@@ -1,7 +1,7 @@
 //! Scan vs grid on the loft, cube and Cornell box: `cargo run --release -p rad-hemisphere
 //! --example scan_check`: checks the item buffers are equal and times both (one thread).
 
-use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
+use rad_accel::{VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_geometry::scenes::{cornell_box, cube, loft, CORNELL_PATCH_MM};
 use rad_geometry::Scene;
@@ -17,16 +17,7 @@ fn main() {
         let scene = Scene::new(desc).unwrap();
         let n = scene.patches().len();
         let patches: Vec<u32> = (0..32).map(|k| ((k * n / 32 + 37) % n) as u32).collect();
-        let g = VoxelGrid::build(
-            &scene,
-            &VoxelGridConfig {
-                resolution: GridResolution::Auto {
-                    density: 4.0,
-                    max_per_axis: 256,
-                },
-            },
-        )
-        .unwrap();
+        let g = VoxelGrid::build(&scene, &VoxelGridConfig::DEFAULT).unwrap();
         let mut s = g.new_scratch();
         let mut ss = ScanScratch::default();
         let (mut a, mut b) = (ItemBuffer::default(), ItemBuffer::default());

@@ -17,7 +17,7 @@ pub mod stats;
 
 pub use parse::{parse_patch_list, parse_resolution};
 
-use rad_accel::{GridResolution, VoxelGridConfig};
+use rad_accel::VoxelGridConfig;
 
 /// Errors of the experiments and writers.
 #[derive(Debug, thiserror::Error)]
@@ -50,15 +50,9 @@ pub enum Error {
     },
 }
 
-/// The voxel grid used everywhere unless told otherwise: about 4 voxels per polygon
-/// (measured best on the loft at 180 × 720; see ARCHITECTURE.md).
+/// The voxel grid used everywhere unless told otherwise ([`VoxelGridConfig::DEFAULT`]).
 pub fn default_grid() -> VoxelGridConfig {
-    VoxelGridConfig {
-        resolution: GridResolution::Auto {
-            density: 4.0,
-            max_per_axis: 256,
-        },
-    }
+    VoxelGridConfig::DEFAULT
 }
 
 /// The estimator settings used unless told otherwise (by the CLI and the harness):

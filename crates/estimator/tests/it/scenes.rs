@@ -1,7 +1,7 @@
 //! Estimation on the bench scenes: zero motion, valid rows, the schedule's counts, and
 //! the cube's errors against exact hemispheres.
 
-use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
+use rad_accel::{VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_estimator::{
     estimate_rows, windows, Estimator, EstimatorConfig, HoleFill, Mode, Reprojection, Source,
@@ -11,12 +11,7 @@ use rad_geometry::scenes::{cube, loft};
 use rad_geometry::Scene;
 use rad_hemisphere::{compute_rows, Hemisphere, HemisphereConfig};
 
-const GRID: VoxelGridConfig = VoxelGridConfig {
-    resolution: GridResolution::Auto {
-        density: 4.0,
-        max_per_axis: 256,
-    },
-};
+const GRID: VoxelGridConfig = VoxelGridConfig::DEFAULT;
 
 fn config(mode: Mode, fill: HoleFill, reprojection: Reprojection, lists: bool) -> EstimatorConfig {
     EstimatorConfig {
