@@ -29,3 +29,44 @@ pub fn has_avx2() -> bool {
         false
     }
 }
+
+/// The vector instruction sets kernels are compiled for (baseline, and under
+/// `#[target_feature]`), one chosen at run time. Every build performs the same IEEE
+/// operations in the same order (no contraction into FMA), so all give the same bits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Isa {
+    /// What the target guarantees (SSE2 on x86_64).
+    Base,
+    /// AVX2: 8 lanes of f32.
+    Avx2,
+    /// AVX-512 (F, VL, DQ, BW): 16 lanes, 32 vector registers, mask registers.
+    Avx512,
+}
+
+impl Isa {
+    /// The widest set this CPU offers (detected once).
+    pub fn detect() -> Isa {
+        static ISA: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
+        *ISA.get_or_init(|| {
+            #[cfg(target_arch = "x86_64")]
+            {
+                use std::arch::is_x86_feature_detected as has;
+                if has!("avx512f") && has!("avx512vl") && has!("avx512dq") && has!("avx512bw") {
+                    return Isa::Avx512;
+                }
+                if has!("avx2") {
+                    return Isa::Avx2;
+                }
+            }
+            Isa::Base
+        })
+    }
+
+    /// Every set this CPU runs, narrowest first (for tests that compare the builds).
+    pub fn available() -> Vec<Isa> {
+        [Isa::Base, Isa::Avx2, Isa::Avx512]
+            .into_iter()
+            .filter(|&i| i <= Isa::detect())
+            .collect()
+    }
+}

@@ -2,7 +2,7 @@
 //! of H2 with its own ray against the polygons guessed for it and its 8 neighbours.
 
 use crate::config::EstimatorConfig;
-use crate::faithful::{motion, splat, Estimator, Points, HOLE};
+use crate::faithful::{motion, splat, Estimator, Points, ZBuffer, HOLE};
 use crate::source::{SourceHemisphere, NO_POLYGON};
 use rad_core::{Hit, PatchId, PolygonId, RayCast};
 use rad_geometry::Scene;
@@ -34,7 +34,7 @@ struct Work {
     hits: NearestHits,
     /// The polygon guessed for each cell (`HOLE` where nothing landed), and the z-buffer.
     guess: Vec<PolygonId>,
-    zbuf: Vec<f32>,
+    zbuf: ZBuffer,
     /// A ring's maximal runs of equal guesses: (guess, first sector, end).
     raw: Vec<(u32, i64, i64)>,
     /// Coarse guess grids: the polygons of H1's cells other than their point's, with
@@ -161,7 +161,7 @@ impl Estimator<'_> {
         let fine_n_phi = hemi.n_phi();
         // 1. Splat polygons (z-buffered). Guesses need not be exact: a cell tests its
         // neighbours' guesses too, so the near points' cells come from the polynomial
-        // angles without edge corrections (off by one cell within about 1e-5 rad of an
+        // angles without edge corrections (off by one cell within about 1e-6 rad of an
         // edge).
         let values = src.polygons(scene);
         let points = if stride == 1 {
@@ -190,6 +190,7 @@ impl Estimator<'_> {
             points,
             |id| SourceHemisphere::polygon_of(scene, id),
             &mut w.guess,
+            None,
             &mut w.zbuf,
             &mut w.extras,
         );

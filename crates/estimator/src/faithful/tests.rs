@@ -81,11 +81,10 @@ fn sector_of_takes_any_angle() {
 }
 
 #[test]
-fn the_avx2_ring_pass_gives_the_baseline_answers_bit_for_bit() {
+fn the_vector_ring_passes_give_the_baseline_answers_bit_for_bit() {
     use super::{ring_pass, RingOut, RingParams, SectorTerms};
-    if !rad_core::has_avx2() {
-        return; // nothing to compare on this CPU: only the baseline runs here
-    }
+    use rad_core::Isa;
+    // (On a CPU with only the baseline there is nothing to compare.)
     let n = 720;
     let mut seed = 0x1234_5678_9abc_def1u64;
     let mut v = |lo: f64, hi: f64| (lo + (hi - lo) * rng(&mut seed)) as f32;
@@ -137,34 +136,36 @@ fn the_avx2_ring_pass_gives_the_baseline_answers_bit_for_bit() {
             margin_l: 0.0115,
         };
         let ring = 7 * n as u32;
-        let run = |avx2: bool, rough: bool| {
+        let run = |isa: Isa, rough: bool| {
             let (mut dest, mut d2) = (vec![0u32; n], vec![0f32; n]);
             let out = RingOut {
                 dest: &mut dest,
                 dist2: &mut d2,
             };
-            ring_pass(avx2, rough, true, &r, &terms, &params, ring, out);
+            ring_pass(isa, rough, true, &r, &terms, &params, ring, out);
             (dest, d2.iter().map(|f| f.to_bits()).collect::<Vec<u32>>())
         };
         for rough in [false, true] {
-            assert!(
-                run(true, rough) == run(false, rough),
-                "the AVX2 pass differs from the baseline at sinθ = {st} (rough: {rough})"
-            );
+            for isa in Isa::available() {
+                assert!(
+                    run(isa, rough) == run(Isa::Base, rough),
+                    "the {isa:?} pass differs from the baseline at sinθ = {st} (rough: {rough})"
+                );
+            }
             // Where no point is beyond the near limit, the pass without the first-order
             // path gives the same answers.
             let near = RingParams {
                 near_limit: f32::INFINITY,
                 ..params
             };
-            for avx2 in [false, true] {
+            for isa in Isa::available() {
                 let pass = |first: bool| {
                     let (mut dest, mut d2) = (vec![0u32; n], vec![0f32; n]);
                     let out = RingOut {
                         dest: &mut dest,
                         dist2: &mut d2,
                     };
-                    ring_pass(avx2, rough, first, &r, &terms, &near, ring, out);
+                    ring_pass(isa, rough, first, &r, &terms, &near, ring, out);
                     (dest, d2.iter().map(|f| f.to_bits()).collect::<Vec<u32>>())
                 };
                 assert!(
@@ -175,8 +176,8 @@ fn the_avx2_ring_pass_gives_the_baseline_answers_bit_for_bit() {
         }
         // The rough pass gives the full pass's answers where it has them, and every
         // kind of answer occurs.
-        let (full, d_full) = run(false, false);
-        let (rough, d_rough) = run(false, true);
+        let (full, d_full) = run(Isa::Base, false);
+        let (rough, d_rough) = run(Isa::Base, true);
         assert_eq!(d_full, d_rough);
         let mut exact_path = 0;
         for j in 0..n {
@@ -245,7 +246,7 @@ fn rough_cells_are_exact_away_from_edges_and_at_most_one_off_near_them() {
                 dist2: &mut d2,
             };
             ring_pass(
-                rad_core::has_avx2(),
+                rad_core::Isa::detect(),
                 rough,
                 false,
                 &r,
