@@ -356,8 +356,8 @@ impl Polygon {
     }
 
     /// [`Polygon::patch_at`] of many parameters at once: `out[k] = patch_at(u[k], v[k])`,
-    /// the same arithmetic in a branch-free loop that vectorises (compiled for AVX2 too,
-    /// chosen at run time, with gathers for the patch texture).
+    /// the same arithmetic in a branch-free loop that vectorises (compiled for AVX2 and
+    /// AVX-512 too, chosen at run time, with gathers for the patch texture).
     ///
     /// # Panics
     /// If the three slices differ in length.
@@ -366,13 +366,20 @@ impl Polygon {
             u.len() == out.len() && v.len() == out.len(),
             "one patch per (u, v)"
         );
-        #[cfg(target_arch = "x86_64")]
-        if rad_core::has_avx2() {
-            // SAFETY: the CPU has AVX2.
-            unsafe { self.patches_at_avx2(u, v, out) };
-            return;
+        match rad_core::Isa::detect() {
+            // SAFETY: the CPU has the instruction set.
+            #[cfg(target_arch = "x86_64")]
+            rad_core::Isa::Avx512 => unsafe { self.patches_at_avx512(u, v, out) },
+            #[cfg(target_arch = "x86_64")]
+            rad_core::Isa::Avx2 => unsafe { self.patches_at_avx2(u, v, out) },
+            _ => self.patches_at_body(u, v, out),
         }
-        self.patches_at_body(u, v, out);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2")]
+    unsafe fn patches_at_avx512(&self, u: &[f32], v: &[f32], out: &mut [PatchId]) {
+        self.patches_at_body(u, v, out)
     }
 
     #[cfg(target_arch = "x86_64")]

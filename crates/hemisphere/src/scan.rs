@@ -319,15 +319,14 @@ impl Hemisphere {
         let n_phi = self.n_phi();
         for ring in 0..self.n_theta() {
             let cells = ring * n_phi..(ring + 1) * n_phi;
-            #[cfg(target_arch = "x86_64")]
-            let forward = if rad_core::has_avx2() {
-                // SAFETY: the CPU has AVX2.
-                unsafe { world_dirs_avx2(poly, s, cells) }
-            } else {
-                world_dirs(poly, s, cells)
+            let forward = match rad_core::Isa::detect() {
+                // SAFETY: the CPU has the instruction set.
+                #[cfg(target_arch = "x86_64")]
+                rad_core::Isa::Avx512 => unsafe { world_dirs_avx512(poly, s, cells) },
+                #[cfg(target_arch = "x86_64")]
+                rad_core::Isa::Avx2 => unsafe { world_dirs_avx2(poly, s, cells) },
+                _ => world_dirs(poly, s, cells),
             };
-            #[cfg(not(target_arch = "x86_64"))]
-            let forward = world_dirs(poly, s, cells);
             s.forward.push(forward);
         }
         s.dirs_for = Some(key);
@@ -337,6 +336,12 @@ impl Hemisphere {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn world_dirs_avx2(poly: &Polygon, s: &mut NearestHits, cells: Range<usize>) -> bool {
+    world_dirs(poly, s, cells)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2")]
+unsafe fn world_dirs_avx512(poly: &Polygon, s: &mut NearestHits, cells: Range<usize>) -> bool {
     world_dirs(poly, s, cells)
 }
 
@@ -388,20 +393,16 @@ fn test_span(poly: &Polygon, h: &Terms, s: &mut NearestHits, a: usize, b: usize)
     let (bu, bv) = (&mut s.best_u[a..b], &mut s.best_v[a..b]);
     s.mask.resize(b - a, 0);
     let mask = &mut s.mask[..b - a];
-    #[cfg(target_arch = "x86_64")]
-    if rad_core::has_avx2() {
-        // SAFETY: the CPU has AVX2.
-        unsafe { span_avx2(h, simple, dx, dy, dz, bt, bp, bu, bv, mask) };
-    } else if simple {
-        span::<true>(h, dx, dy, dz, bt, bp, bu, bv, mask);
-    } else {
-        span::<false>(h, dx, dy, dz, bt, bp, bu, bv, mask);
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    if simple {
-        span::<true>(h, dx, dy, dz, bt, bp, bu, bv, mask);
-    } else {
-        span::<false>(h, dx, dy, dz, bt, bp, bu, bv, mask);
+    match rad_core::Isa::detect() {
+        // SAFETY: the CPU has the instruction set.
+        #[cfg(target_arch = "x86_64")]
+        rad_core::Isa::Avx512 => unsafe {
+            span_avx512(h, simple, dx, dy, dz, bt, bp, bu, bv, mask)
+        },
+        #[cfg(target_arch = "x86_64")]
+        rad_core::Isa::Avx2 => unsafe { span_avx2(h, simple, dx, dy, dz, bt, bp, bu, bv, mask) },
+        _ if simple => span::<true>(h, dx, dy, dz, bt, bp, bu, bv, mask),
+        _ => span::<false>(h, dx, dy, dz, bt, bp, bu, bv, mask),
     }
     if simple || !mask.contains(&1) {
         return;
@@ -423,6 +424,28 @@ fn test_span(poly: &Polygon, h: &Terms, s: &mut NearestHits, a: usize, b: usize)
         if inside {
             (bt[k], bp[k], bu[k], bv[k]) = (t, h.id, u, v);
         }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn span_avx512(
+    h: &Terms,
+    simple: bool,
+    dx: &[f32],
+    dy: &[f32],
+    dz: &[f32],
+    bt: &mut [f32],
+    bp: &mut [u32],
+    bu: &mut [f32],
+    bv: &mut [f32],
+    mask: &mut [u8],
+) {
+    if simple {
+        span::<true>(h, dx, dy, dz, bt, bp, bu, bv, mask)
+    } else {
+        span::<false>(h, dx, dy, dz, bt, bp, bu, bv, mask)
     }
 }
 
