@@ -483,6 +483,89 @@ pub(crate) fn splat(
     z: &mut ZBuffer,
     extras: &mut Vec<(u32, PatchId)>,
 ) {
+    let isa = Isa::detect();
+    match isa {
+        // SAFETY: the CPU has the instruction set.
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 => unsafe {
+            splat_avx512(
+                trig, src, m, config, rough, points, value, ids, dist, z, extras,
+            )
+        },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 => unsafe {
+            splat_avx2(
+                trig, src, m, config, rough, points, value, ids, dist, z, extras,
+            )
+        },
+        _ => splat_body(
+            isa, trig, src, m, config, rough, points, value, ids, dist, z, extras,
+        ),
+    }
+}
+
+/// [`splat_body`] compiled for AVX-512 (its own passes: the ring pass is chosen apart).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn splat_avx512(
+    trig: &CellTrig,
+    src: &SourceHemisphere,
+    m: &Motion,
+    config: &EstimatorConfig,
+    rough: bool,
+    points: Points,
+    value: impl Fn(PatchId) -> PatchId,
+    ids: &mut Vec<PatchId>,
+    dist: Option<&mut Vec<f32>>,
+    z: &mut ZBuffer,
+    extras: &mut Vec<(u32, PatchId)>,
+) {
+    let isa = Isa::Avx512;
+    splat_body(
+        isa, trig, src, m, config, rough, points, value, ids, dist, z, extras,
+    )
+}
+
+/// [`splat_body`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn splat_avx2(
+    trig: &CellTrig,
+    src: &SourceHemisphere,
+    m: &Motion,
+    config: &EstimatorConfig,
+    rough: bool,
+    points: Points,
+    value: impl Fn(PatchId) -> PatchId,
+    ids: &mut Vec<PatchId>,
+    dist: Option<&mut Vec<f32>>,
+    z: &mut ZBuffer,
+    extras: &mut Vec<(u32, PatchId)>,
+) {
+    let isa = Isa::Avx2;
+    splat_body(
+        isa, trig, src, m, config, rough, points, value, ids, dist, z, extras,
+    )
+}
+
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn splat_body(
+    isa: Isa,
+    trig: &CellTrig,
+    src: &SourceHemisphere,
+    m: &Motion,
+    config: &EstimatorConfig,
+    rough: bool,
+    points: Points,
+    value: impl Fn(PatchId) -> PatchId,
+    ids: &mut Vec<PatchId>,
+    dist: Option<&mut Vec<f32>>,
+    z: &mut ZBuffer,
+    extras: &mut Vec<(u32, PatchId)>,
+) {
     extras.clear();
     let n_phi = trig.n_phi;
     let n_cells = trig.n_cells();
@@ -565,7 +648,6 @@ pub(crate) fn splat(
         cp: &trig.cp,
         sp: &trig.sp,
     };
-    let isa = Isa::detect();
     let has_lists = src.has_lists();
     // Cursor in the extras (by cell).
     let mut extra = 0;
@@ -625,19 +707,39 @@ pub(crate) fn splat(
         // Every point's cell and distance from the branch-free pass (rough cells need no
         // corrections), the few points left to the exact path corrected, then the
         // z-buffered writes.
-        let first = r.iter().any(|&r| r > params.near_limit);
+        // (Counted, so that it vectorises.)
+        let first = r
+            .iter()
+            .map(|&r| u32::from(r > params.near_limit))
+            .sum::<u32>()
+            > 0;
         ring_pass(isa, rough, first, r, &terms, &params, ring as u32, out);
         let (dest, dist2) = (&mut dest[..n], &dist2[..n]);
-        for j in 0..n {
-            if dest[j] == EXACT_PATH {
-                dest[j] = exact_path_cell(trig, r[j], &terms, &params, j);
+        // The few points near cell edges, by the exact path (a test that vectorises
+        // first: most rings have none).
+        if dest
+            .iter()
+            .map(|&c| u32::from(c == EXACT_PATH))
+            .sum::<u32>()
+            > 0
+        {
+            for j in 0..n {
+                if dest[j] == EXACT_PATH {
+                    dest[j] = exact_path_cell(trig, r[j], &terms, &params, j);
+                }
             }
-            put(keys, dest[j], dist2[j], src_values[j]);
-            if has_lists {
+        }
+        if has_lists {
+            for j in 0..n {
+                put(keys, dest[j], dist2[j], src_values[j]);
                 for &(id, r) in src.list(src_cell(j)) {
                     let (cell, r2) = project(i, j, r);
                     put(keys, cell, r2, value(id));
                 }
+            }
+        } else {
+            for j in 0..n {
+                put(keys, dest[j], dist2[j], src_values[j]);
             }
         }
         extras.extend(
@@ -647,11 +749,14 @@ pub(crate) fn splat(
                 .filter(|e| e.0 != NOWHERE),
         );
     }
-    // What each cell records (a hole's key holds `HOLE`), and how far (a hole's squared
+    // What each cell records (`HOLE` where nothing landed), and how far (a hole's squared
     // distance bits, all ones, go to ∞ by `min`). Both vectorise.
     let keys = &keys[..n_cells];
     ids.clear();
-    ids.extend(keys.iter().map(|&k| k as PatchId));
+    ids.extend(
+        keys.iter()
+            .map(|&k| if k == EMPTY { HOLE } else { k as PatchId }),
+    );
     if let Some(dist) = dist {
         dist.clear();
         let inf = f32::INFINITY.to_bits();
@@ -669,8 +774,8 @@ pub(crate) struct ZBuffer {
 }
 
 /// The key of a cell nothing landed in: above every point's (whose distance bits are at
-/// most ∞'s), recording `HOLE`.
-const EMPTY: u64 = (u32::MAX as u64) << 32 | HOLE as u64;
+/// most ∞'s); all ones, so that the z-buffer is cleared by `memset`.
+const EMPTY: u64 = u64::MAX;
 
 /// No destination: the point left the hemisphere.
 const NOWHERE: u32 = u32::MAX;
