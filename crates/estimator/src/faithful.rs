@@ -330,7 +330,10 @@ fn ring_pass_body<const ROUGH: bool, const FIRST: bool>(
             NOWHERE
         };
         let sure = ROUGH || {
-            let (fk, fl) = (th_c - rk as f32, x_c - (x_c as i32) as f32);
+            // SAFETY: x_c is finite and in range (as above); `as` would saturate, which
+            // does not vectorise.
+            let xl = unsafe { x_c.to_int_unchecked::<i32>() };
+            let (fk, fl) = (th_c - rk as f32, x_c - xl as f32);
             p.fast
                 & (fk > p.margin_k)
                 & (fk < 1.0 - p.margin_k)
