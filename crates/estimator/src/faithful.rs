@@ -163,14 +163,22 @@ impl CellTrig {
             .max(0.0)
             .min((RING_TABLE - 1) as f32);
         // SAFETY: t is finite and in [0, RING_TABLE − 1].
-        let mut k = self.ring_of_c2[unsafe { t.to_int_unchecked::<u32>() } as usize] as usize;
+        let k = self.ring_of_c2[unsafe { t.to_int_unchecked::<u32>() } as usize] as usize;
+        self.cell_near(q, c2, k, self.sector_of_x(x))
+    }
+
+    /// The cell of direction `q` (above the plane), with `c2 = cos²θ`, from a first
+    /// guess (ring `k`, sector `l`) a few sectors off at most, corrected against the
+    /// cell edges: ring k holds cos²θ in (cos2_edge[k + 1], cos2_edge[k]], sector l
+    /// the directions on or after edge l and before edge l + 1.
+    #[inline(always)]
+    pub fn cell_near(&self, q: [f32; 3], c2: f32, mut k: usize, mut l: usize) -> usize {
         while k > 0 && c2 > self.cos2_edge[k] {
             k -= 1;
         }
         while k + 1 < self.n_theta && c2 <= self.cos2_edge[k + 1] {
             k += 1;
         }
-        let mut l = self.sector_of_x(x);
         // Corrections: q must lie on or after edge l and before edge l + 1.
         let cross = |e: [f32; 2]| e[0] * q[1] - e[1] * q[0];
         for _ in 0..4 {
@@ -247,9 +255,9 @@ struct SectorTerms<'a> {
     sp: &'a [f32],
 }
 
-/// A ring's pass output: each point's cell (or `NOWHERE`, or `EXACT_PATH` where the
-/// exact path must correct the polynomial angles) and the squared distance the z-buffer
-/// compares.
+/// A ring's pass output: each point's cell (or `NOWHERE`, or its rough cell with the
+/// `UNSURE` bit where the exact path must correct it) and the squared distance the
+/// z-buffer compares.
 struct RingOut<'a> {
     dest: &'a mut [u32],
     dist2: &'a mut [f32],
@@ -264,8 +272,8 @@ struct RingOut<'a> {
 ///
 /// With `ROUGH` every point gets its rough cell on the exact path. Without, only where
 /// both angles lie over `EDGE_MARGIN` rad from every edge (ten times the polynomial's
-/// error; never at resolutions finer than `FAST_PATH_MIN_CELL`), the other points are
-/// marked `EXACT_PATH` for [`exact_path_cell`].
+/// error; never at resolutions finer than `FAST_PATH_MIN_CELL`); the other points get
+/// their rough cell with the `UNSURE` bit, for [`exact_path_cell`] to correct.
 ///
 /// Without `FIRST` no point takes the first-order path (for rings where none is far
 /// enough): the same answers, without computing it.
@@ -346,7 +354,13 @@ fn ring_pass_body<const ROUGH: bool, const FIRST: bool>(
         dest[j] = match (ok, finite, sure) {
             (true, _, _) => first_order,
             (false, true, true) => rough_cell,
-            (false, true, false) => EXACT_PATH,
+            (false, true, false) => {
+                if rough_cell == NOWHERE {
+                    NOWHERE
+                } else {
+                    rough_cell | UNSURE
+                }
+            }
             (false, false, _) => ring + j as u32,
         };
         dist2[j] = match (ok, finite) {
@@ -357,20 +371,26 @@ fn ring_pass_body<const ROUGH: bool, const FIRST: bool>(
     }
 }
 
-/// The exact cell of point `j` of a ring that [`ring_pass_body`] left `EXACT_PATH`:
-/// the same `q` (to the bit), its angles corrected against the cell edges.
+/// The exact cell of point `j` of a ring that [`ring_pass_body`] left `UNSURE` with
+/// its rough cell `rough` (so q is above the plane): the same `q` (to the bit), the
+/// rough cell (at most a cell off each way) corrected against the cell edges.
 #[inline]
-fn exact_path_cell(trig: &CellTrig, r: f32, t: &SectorTerms, p: &RingParams, j: usize) -> u32 {
+fn exact_path_cell(
+    trig: &CellTrig,
+    r: f32,
+    t: &SectorTerms,
+    p: &RingParams,
+    j: usize,
+    rough: u32,
+) -> u32 {
     let rs = r * p.st;
     let q0 = rs * t.cp[j] - p.d[0];
     let q1 = rs * t.sp[j] - p.d[1];
     let q2 = r * p.ct - p.d[2];
-    if !(q2 > 0.0) {
-        return NOWHERE;
-    }
     let r2 = q0 * q0 + q1 * q1 + q2 * q2;
-    let x = atan2_approx(q1, q0) * p.inv_d_phi - p.shift;
-    trig.cell_from_parts([q0, q1, q2], q2 * q2 / r2, x) as u32
+    let rough = rough as usize;
+    let (k, l) = (rough / trig.n_phi, rough % trig.n_phi);
+    trig.cell_near([q0, q1, q2], q2 * q2 / r2, k, l) as u32
 }
 
 /// [`ring_pass_body`] compiled for AVX2 (8 lanes), chosen at run time where the CPU has
@@ -718,31 +738,20 @@ fn splat_body(
             > 0;
         ring_pass(isa, rough, first, r, &terms, &params, ring as u32, out);
         let (dest, dist2) = (&mut dest[..n], &dist2[..n]);
-        // The few points near cell edges, by the exact path (a test that vectorises
-        // first: most rings have none).
-        if dest
-            .iter()
-            .map(|&c| u32::from(c == EXACT_PATH))
-            .sum::<u32>()
-            > 0
-        {
-            for j in 0..n {
-                if dest[j] == EXACT_PATH {
-                    dest[j] = exact_path_cell(trig, r[j], &terms, &params, j);
-                }
+        // The z-buffered writes; the few points near cell edges (unsure) are corrected
+        // by the exact path first.
+        let unsure = |c: u32| c & UNSURE != 0 && c != NOWHERE;
+        for j in 0..n {
+            if unsure(dest[j]) {
+                let rough = dest[j] & !UNSURE;
+                dest[j] = exact_path_cell(trig, r[j], &terms, &params, j, rough);
             }
-        }
-        if has_lists {
-            for j in 0..n {
-                put(keys, dest[j], dist2[j], src_values[j]);
+            put(keys, dest[j], dist2[j], src_values[j]);
+            if has_lists {
                 for &(id, r) in src.list(src_cell(j)) {
                     let (cell, r2) = project(i, j, r);
                     put(keys, cell, r2, value(id));
                 }
-            }
-        } else {
-            for j in 0..n {
-                put(keys, dest[j], dist2[j], src_values[j]);
             }
         }
         extras.extend(
@@ -790,8 +799,9 @@ const EDGE_MARGIN: f32 = 1e-5;
 /// ways (up to about 785 × 3,141 cells): it is tested there, and the f32 cos² edges of
 /// the corrected path stay far more precise than the margin.
 const FAST_PATH_MIN_CELL: f64 = 2e-3;
-/// Destination to be found by the exact path.
-const EXACT_PATH: u32 = u32::MAX - 1;
+/// Marks a rough cell the exact path must correct (cells are below 2^26: see
+/// `rad_hemisphere::MAX_CELLS`).
+pub(crate) const UNSURE: u32 = 1 << 31;
 
 /// Fills holes in `ids` (marked `HOLE`) by `fill`; `source(c)` is H1's entry of cell
 /// `c`. Returns the number of holes and their form factor.
