@@ -905,23 +905,24 @@ fn fill_holes_body(
         if count(ring) == 0 {
             continue;
         }
-        // Then the rest of the longer runs: (first, length), the run that wraps round
-        // joined.
+        // Then the rest of the longer runs: (first, length), found 64 cells at a time
+        // from a bit mask of the holes; the run that wraps round joined.
         runs.clear();
-        const CHUNK: usize = 16;
-        for (k, chunk) in ring.chunks(CHUNK).enumerate() {
-            // (A chunk without holes is skipped by a test that vectorises.)
-            if count(chunk) == 0 {
-                continue;
-            }
-            for (t, &id) in chunk.iter().enumerate() {
-                let j = k * CHUNK + t;
-                if id == HOLE {
-                    match runs.last_mut() {
-                        Some((h, len)) if *h + *len == j => *len += 1,
-                        _ => runs.push((j, 1)),
-                    }
+        for (w, chunk) in ring.chunks(64).enumerate() {
+            let mut m = chunk
+                .iter()
+                .enumerate()
+                .fold(0u64, |m, (t, &id)| m | u64::from(id == HOLE) << t);
+            while m != 0 {
+                let a = m.trailing_zeros() as usize;
+                let len = (!(m >> a)).trailing_zeros() as usize;
+                let j = 64 * w + a;
+                match runs.last_mut() {
+                    Some((h, l)) if *h + *l == j => *l += len,
+                    _ => runs.push((j, len)),
                 }
+                // Clear the run's bits (a + len ≤ 64).
+                m &= if a + len == 64 { 0 } else { !0u64 << (a + len) };
             }
         }
         if runs.len() > 1 && runs[0].0 == 0 {
@@ -931,12 +932,17 @@ fn fill_holes_body(
                 runs.pop();
             }
         }
-        let at = |p: usize| if p < n { p } else { p - n };
+        // Cells h .. h + len (wrapping) take `v`.
+        let put = |ring: &mut [PatchId], h: usize, len: usize, v: PatchId| {
+            let first = (n - h).min(len);
+            ring[h..h + first].fill(v);
+            ring[..len - first].fill(v);
+        };
         for &(h, len) in &runs {
-            let (lv, rv) = (ring[at(h + n - 1)], ring[at(h + len)]);
-            for t in 0..len {
-                ring[at(h + t)] = if t < len.div_ceil(2) { lv } else { rv };
-            }
+            let (lv, rv) = (ring[(h + n - 1) % n], ring[(h + len) % n]);
+            let left = len.div_ceil(2);
+            put(ring, h, left, lv);
+            put(ring, (h + left) % n, len - left, rv);
         }
     }
     (holes, hole_ff)
