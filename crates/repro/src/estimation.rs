@@ -141,9 +141,15 @@ pub struct EstimationTiming {
     pub median_ms_exact: f64,
     pub median_ms_faithful: f64,
     pub median_ms_improved: f64,
-    /// Estimate over exact (grid), per mode.
+    /// Estimate over exact (grid), per mode: of the medians.
     pub ratio_faithful: f64,
     pub ratio_improved: f64,
+    /// Estimate over exact (grid), per mode: of the total times (each estimate timed
+    /// right after its patch's exact hemisphere, so that drifts in the machine's speed
+    /// cancel). Improved mode's abandoned estimates, cast exactly, count here in full;
+    /// the median does not see them.
+    pub total_ratio_faithful: f64,
+    pub total_ratio_improved: f64,
     /// The same exact item buffers by polygon scan ([`Hemisphere::scan`]).
     pub median_ms_scan: f64,
     /// Real rays the improved mode cast, per estimated hemisphere.
@@ -211,6 +217,8 @@ pub fn timing(
             median_ms_improved: 1e3 * i,
             ratio_faithful: f / e,
             ratio_improved: i / e,
+            total_ratio_faithful: tf.iter().sum::<f64>() / te.iter().sum::<f64>(),
+            total_ratio_improved: ti.iter().sum::<f64>() / te.iter().sum::<f64>(),
             median_ms_scan: 1e3 * Summary::of(&ts).median,
             improved_real_rays_per_hemisphere: real as f64 / ti.len().max(1) as f64,
         }
