@@ -44,29 +44,41 @@ pub enum Isa {
 }
 
 impl Isa {
-    /// The widest set this CPU offers (detected once).
+    /// The set the kernels use (decided once): the widest this CPU offers, capped by
+    /// the environment variable `COHERAD_ISA` (`base`, `avx2` or `avx512`) if set, for
+    /// timing one build against another. The results are the same bits either way.
     pub fn detect() -> Isa {
         static ISA: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
         *ISA.get_or_init(|| {
-            #[cfg(target_arch = "x86_64")]
-            {
-                use std::arch::is_x86_feature_detected as has;
-                if has!("avx512f") && has!("avx512vl") && has!("avx512dq") && has!("avx512bw") {
-                    return Isa::Avx512;
-                }
-                if has!("avx2") {
-                    return Isa::Avx2;
-                }
-            }
-            Isa::Base
+            let cap = match std::env::var("COHERAD_ISA").as_deref() {
+                Ok("base") => Isa::Base,
+                Ok("avx2") => Isa::Avx2,
+                _ => Isa::Avx512,
+            };
+            Isa::supported().min(cap)
         })
+    }
+
+    /// The widest set this CPU offers.
+    pub fn supported() -> Isa {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::is_x86_feature_detected as has;
+            if has!("avx512f") && has!("avx512vl") && has!("avx512dq") && has!("avx512bw") {
+                return Isa::Avx512;
+            }
+            if has!("avx2") {
+                return Isa::Avx2;
+            }
+        }
+        Isa::Base
     }
 
     /// Every set this CPU runs, narrowest first (for tests that compare the builds).
     pub fn available() -> Vec<Isa> {
         [Isa::Base, Isa::Avx2, Isa::Avx512]
             .into_iter()
-            .filter(|&i| i <= Isa::detect())
+            .filter(|&i| i <= Isa::supported())
             .collect()
     }
 }

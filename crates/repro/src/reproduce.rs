@@ -671,7 +671,10 @@ impl Reproduction {
             "### Cost of a hemisphere, one thread (medians, and totals, same run)\n"
         );
         let _ = writeln!(w, "| scene | resolution | hemispheres | exact (grid) | faithful | ratio | ratio of totals | improved | ratio | ratio of totals | real rays / improved hemisphere | exact (scan) | faithful / scan | improved / scan |");
-        let _ = writeln!(w, "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(
+            w,
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+        );
         for t in &e.timing {
             let _ = writeln!(
                 w,
