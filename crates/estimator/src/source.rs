@@ -141,27 +141,35 @@ impl SourceHemisphere {
             let (n_theta, n_phi) = (hemi.n_theta() / stride, hemi.n_phi() / stride);
             let fine = hemi.n_phi();
             let mut out = CoarsePoints::default();
+            let n = n_theta * n_phi;
+            out.dist.reserve(n);
+            out.polygons.reserve(n);
+            out.cells.reserve(n);
             for i in 0..n_theta {
                 for j in 0..n_phi {
-                    let block = |a: usize| {
-                        let row = (stride * i + a) * fine + stride * j;
-                        row..row + stride
-                    };
-                    let mut best = block(0).start;
-                    for c in (0..stride).flat_map(block) {
-                        if dist[c] < dist[best] {
-                            best = c;
+                    let row = |a: usize| (stride * i + a) * fine + stride * j;
+                    // The nearest point of the block, the first in row order on ties
+                    // (branch-free: which is nearer is unpredictable).
+                    let (mut best, mut bd) = (row(0), dist[row(0)]);
+                    for a in 0..stride {
+                        let r = row(a);
+                        for (c, &d) in dist[r..r + stride].iter().enumerate() {
+                            let nearer = d < bd;
+                            bd = if nearer { d } else { bd };
+                            best = if nearer { r + c } else { best };
                         }
                     }
-                    out.dist.push(dist[best]);
+                    out.dist.push(bd);
                     out.polygons.push(values[best]);
                     out.cells.push(best as u32);
                     let cell = (i * n_phi + j) as u32;
                     let first = out.extras.len();
-                    for c in (0..stride).flat_map(block) {
-                        let v = values[c];
-                        if v != values[best] && !out.extras[first..].contains(&(cell, v)) {
-                            out.extras.push((cell, v));
+                    for a in 0..stride {
+                        let r = row(a);
+                        for &v in &values[r..r + stride] {
+                            if v != values[best] && !out.extras[first..].contains(&(cell, v)) {
+                                out.extras.push((cell, v));
+                            }
                         }
                     }
                 }
