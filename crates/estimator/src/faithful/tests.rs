@@ -303,3 +303,49 @@ fn rough_cells_are_exact_away_from_edges_and_at_most_one_off_near_them() {
         "only {sure_n} of {total} sure"
     );
 }
+
+/// Hole filling gives the same cells in every build (baseline, AVX2, AVX-512 where the
+/// CPU has them), with both policies, on rings of every pattern of holes.
+#[test]
+fn hole_filling_is_the_same_in_every_build() {
+    use super::{fill_holes_body, HOLE};
+    use crate::config::HoleFill;
+    use rad_core::{Isa, PatchId};
+    let mut seed = 0x5eed_f111_0000_0001u64;
+    for case in 0..300 {
+        let n_phi = [4, 5, 63, 64, 65, 720][case % 6];
+        let hemi = Hemisphere::new(HemisphereConfig::exact(7, n_phi as u32)).unwrap();
+        let share = rng(&mut seed);
+        let ids: Vec<PatchId> = (0..7 * n_phi)
+            .map(|_| {
+                if rng(&mut seed) < share {
+                    HOLE
+                } else {
+                    (rng(&mut seed) * 5.0) as PatchId
+                }
+            })
+            .collect();
+        for fill in [HoleFill::KeepSource, HoleFill::RingNeighbour] {
+            let source = |c: usize| 1000 + c as PatchId;
+            let mut base = ids.clone();
+            let base_holes = fill_holes_body(&hemi, &mut base, fill, source);
+            assert!(!base.contains(&HOLE), "case {case}: a hole left");
+            for isa in Isa::available() {
+                let mut got = ids.clone();
+                // SAFETY: `available` lists only sets this CPU has.
+                let holes = match isa {
+                    #[cfg(target_arch = "x86_64")]
+                    Isa::Avx512 => unsafe {
+                        super::fill_holes_avx512(&hemi, &mut got, fill, source)
+                    },
+                    #[cfg(target_arch = "x86_64")]
+                    Isa::Avx2 => unsafe { super::fill_holes_avx2(&hemi, &mut got, fill, source) },
+                    _ => fill_holes_body(&hemi, &mut got, fill, source),
+                };
+                assert_eq!(got, base, "case {case}, {isa:?}, {fill:?}");
+                assert_eq!(holes.0, base_holes.0);
+                assert_eq!(holes.1.to_bits(), base_holes.1.to_bits());
+            }
+        }
+    }
+}
