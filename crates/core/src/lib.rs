@@ -16,20 +16,6 @@ pub type PolygonId = u32;
 /// Index of a patch (one texel of a polygon's patch texture) in its scene.
 pub type PatchId = u32;
 
-/// Whether this CPU has AVX2, for kernels compiled twice (baseline and
-/// `#[target_feature(enable = "avx2")]`) and chosen at run time. Both builds perform
-/// the same IEEE operations in the same order, so they give the same bits.
-pub fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 /// The vector instruction sets kernels are compiled for (baseline, and under
 /// `#[target_feature]`), one chosen at run time. Every build performs the same IEEE
 /// operations in the same order (no contraction into FMA), so all give the same bits.
@@ -45,8 +31,9 @@ pub enum Isa {
 
 impl Isa {
     /// The set the kernels use (decided once): the widest this CPU offers, capped by
-    /// the environment variable `COHERAD_ISA` (`base`, `avx2` or `avx512`) if set, for
-    /// timing one build against another. The results are the same bits either way.
+    /// the environment variable `COHERAD_ISA` (`base`, `avx2` or `avx512`; any other
+    /// value, or none, caps nothing), for timing one build against another. The results
+    /// are the same bits either way.
     pub fn detect() -> Isa {
         static ISA: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
         *ISA.get_or_init(|| {

@@ -58,11 +58,12 @@ impl CellTrig {
     }
 
     /// The tables of the grid s times coarser both ways (`stride` must divide N_θ and
-    /// N_φ). (`%`, not `is_multiple_of`: the workspace builds on Rust 1.83.)
-    #[allow(clippy::manual_is_multiple_of)]
+    /// N_φ).
     pub fn strided(hemi: &Hemisphere, stride: usize) -> CellTrig {
         assert!(
-            stride >= 1 && hemi.n_theta() % stride == 0 && hemi.n_phi() % stride == 0,
+            stride >= 1
+                && hemi.n_theta().is_multiple_of(stride)
+                && hemi.n_phi().is_multiple_of(stride),
             "the stride divides the resolution"
         );
         let (n_theta, n_phi) = (hemi.n_theta() / stride, hemi.n_phi() / stride);
@@ -243,6 +244,8 @@ struct RingParams {
     fast: bool,
     margin_k: f32,
     margin_l: f32,
+    /// `COT_MARGIN` in cells of θ: the θ margin grows by it times cot θ.
+    cot_k: f32,
 }
 
 /// Per-sector inputs of a ring's pass (motion-dependent, the same for every ring).
@@ -324,7 +327,8 @@ fn ring_pass_body<const ROUGH: bool, const FIRST: bool>(
         let r2 = q0 * q0 + q1 * q1 + q2 * q2;
         let x = atan2_approx(q1, q0) * p.inv_d_phi - p.shift;
         // Rough cell: θ = atan2(|q_xy|, q_z), sector from x (wrapped once each way).
-        let th = atan2_approx((q0 * q0 + q1 * q1).sqrt(), q2) * p.inv_d_theta;
+        let rho = (q0 * q0 + q1 * q1).sqrt();
+        let th = atan2_approx(rho, q2) * p.inv_d_theta;
         let th_c = th.max(0.0).min(ntf - 1.0);
         let x_c = (x + nf).max(0.0).min(3.0 * nf);
         // SAFETY: finite and in range after the clamps (`max` drops NaN).
@@ -342,9 +346,12 @@ fn ring_pass_body<const ROUGH: bool, const FIRST: bool>(
             // does not vectorise.
             let xl = unsafe { x_c.to_int_unchecked::<i32>() };
             let (fk, fl) = (th_c - rk as f32, x_c - xl as f32);
+            // θ clear of both ring edges by margin_k + cot_k cot θ, cot θ = q2 / ρ
+            // (multiplied out: false at the pole, ρ = 0).
+            let kq = p.cot_k * q2;
             p.fast
-                & (fk > p.margin_k)
-                & (fk < 1.0 - p.margin_k)
+                & ((fk - p.margin_k) * rho > kq)
+                & ((1.0 - fk - p.margin_k) * rho > kq)
                 & (fl > p.margin_l)
                 & (fl < 1.0 - p.margin_l)
                 & (th < ntf - 1.0)
@@ -430,8 +437,12 @@ fn ring_pass_with<const ROUGH: bool, const FIRST: bool>(
     ring: u32,
     out: RingOut,
 ) {
+    assert!(
+        isa <= Isa::supported(),
+        "{isa:?} is not available on this CPU"
+    );
     match isa {
-        // SAFETY: the caller passes an instruction set the CPU has.
+        // SAFETY: the CPU has the instruction set (asserted).
         #[cfg(target_arch = "x86_64")]
         Isa::Avx512 => unsafe { ring_pass_avx512::<ROUGH, FIRST>(r, t, p, ring, out) },
         #[cfg(target_arch = "x86_64")]
@@ -487,9 +498,10 @@ pub(crate) struct Points<'a> {
 /// Splats `points` (and the boundary lists of `src` that go with them) into `ids` (and
 /// their distances into `dist`, where given), cells of `trig`'s grid, as seen from
 /// C1 + `m`, the nearest winning (the lower value on ties); cells nothing lands in are
-/// `HOLE` (at distance ∞). `z` is working memory. The point of cell c is in the direction of the grid's cell c as seen
-/// from H1 (with a stride s, that of H1's cell (sI, sJ)) at `points.dist[c]`; its cell
-/// records `points.values[c]`, and a boundary-list entry `id` records `value(id)`.
+/// `HOLE` (at distance ∞). `z` is working memory. The point of cell c is in the
+/// direction of the grid's cell c as seen from H1 (with a stride s, that of H1's cell
+/// (sI, sJ)) at `points.dist[c]`; its cell records `points.values[c]`, and a
+/// boundary-list entry `id` records `value(id)`.
 /// `extras` gets each of `points.extras` with the cell its point lands in. Points at
 /// infinity (escaped rays) do not move.
 #[allow(clippy::too_many_arguments)]
@@ -656,6 +668,10 @@ fn splat_body(
     };
     // Keeps the smaller key (branch-free); `NOWHERE` goes to the last key.
     let put = |keys: &mut [u64], cell: u32, r2: f32, value: PatchId| {
+        debug_assert!(
+            (cell as usize) < n_cells || cell == NOWHERE,
+            "cell {cell:#x}"
+        );
         let slot = (cell as usize).min(n_cells);
         let key = (u64::from(r2.to_bits()) << 32) | u64::from(value);
         keys[slot] = keys[slot].min(key);
@@ -721,6 +737,7 @@ fn splat_body(
             fast: trig.min_cell >= FAST_PATH_MIN_CELL,
             margin_k: EDGE_MARGIN * trig.inv_d_theta,
             margin_l: EDGE_MARGIN * trig.inv_d_phi,
+            cot_k: COT_MARGIN * trig.inv_d_theta,
         };
         let out = RingOut {
             dest: &mut dest,
@@ -728,9 +745,8 @@ fn splat_body(
         };
         let n = n_phi;
         // Every point's cell and distance from the branch-free pass (rough cells need no
-        // corrections), the few points left to the exact path corrected, then the
-        // z-buffered writes.
-        // (Counted, so that it vectorises.)
+        // corrections); `first` tells whether any point is far enough for first order
+        // (counted, so that it vectorises).
         let first = r
             .iter()
             .map(|&r| u32::from(r > params.near_limit))
@@ -795,9 +811,14 @@ const NOWHERE: u32 = u32::MAX;
 /// the polynomial angles' error (under 1e-6 rad: see [`atan2_approx`]). About 0.5 % of
 /// the points at 180 × 720 fall within it of an edge.
 const EDGE_MARGIN: f32 = 1e-5;
+/// Added to the θ margin, times cot θ. The exact path's own ring test (cos²θ of the f32
+/// vector against the f32 edges) is ill-conditioned next to the pole: cos²θ near 1 carries
+/// about three roundings and the edge one, about 3e-7 in all, which is 1.5e-7 cot θ rad
+/// of θ. Twice that is added, so that a rough cell is trusted only where both paths give
+/// the same cell (a review found 360 × 1440 and 785 × 3,140 disagreeing without it).
+const COT_MARGIN: f32 = 3e-7;
 /// The rough fast path is used only where cells span at least this many radians both
-/// ways (up to about 785 × 3,141 cells): it is tested there, and the f32 cos² edges of
-/// the corrected path stay far more precise than the margin.
+/// ways (up to about 785 × 3,141 cells): it is tested there.
 const FAST_PATH_MIN_CELL: f64 = 2e-3;
 /// Marks a rough cell the exact path must correct (cells are below 2^26: see
 /// `rad_hemisphere::MAX_CELLS`).
@@ -973,13 +994,12 @@ impl<'h> Estimator<'h> {
 
     /// The tables of the grid s times coarser, s the largest stride up to `stride`
     /// (and `MAX_GUESS_STRIDE`) that divides the resolution both ways.
-    #[allow(clippy::manual_is_multiple_of)]
     pub(crate) fn trig_strided(&self, stride: usize) -> &CellTrig {
         let h = self.hemi;
         let max = stride.min(self.strided.len() + 1);
         match (2..=max)
             .rev()
-            .find(|&s| h.n_theta() % s == 0 && h.n_phi() % s == 0)
+            .find(|&s| h.n_theta().is_multiple_of(s) && h.n_phi().is_multiple_of(s))
         {
             Some(s) => self.strided[s - 2].get_or_init(|| CellTrig::strided(h, s)),
             None => &self.trig,
