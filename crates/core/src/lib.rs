@@ -18,14 +18,16 @@ pub type PatchId = u32;
 
 /// The vector instruction sets kernels are compiled for (baseline, and under
 /// `#[target_feature]`), one chosen at run time. Every build performs the same IEEE
-/// operations in the same order (no contraction into FMA), so all give the same bits.
+/// operations in the same order (no contraction into FMA: fused multiply-adds only where
+/// the code says `mul_add`, which is correctly rounded in every build, by the library
+/// where the baseline has no instruction), so all give the same bits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Isa {
     /// What the target guarantees (SSE2 on x86_64).
     Base,
-    /// AVX2: 8 lanes of f32.
+    /// AVX2 and FMA: 8 lanes of f32.
     Avx2,
-    /// AVX-512 (F, VL, DQ, BW): 16 lanes, 32 vector registers, mask registers.
+    /// AVX-512 (F, VL, DQ, BW) and FMA: 16 lanes, 32 vector registers, mask registers.
     Avx512,
 }
 
@@ -51,10 +53,11 @@ impl Isa {
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::is_x86_feature_detected as has;
-            if has!("avx512f") && has!("avx512vl") && has!("avx512dq") && has!("avx512bw") {
+            let fma = has!("fma");
+            if fma && has!("avx512f") && has!("avx512vl") && has!("avx512dq") && has!("avx512bw") {
                 return Isa::Avx512;
             }
-            if has!("avx2") {
+            if fma && has!("avx2") {
                 return Isa::Avx2;
             }
         }

@@ -206,17 +206,27 @@ const RING_TABLE: usize = 1 << 14;
 fn atan2_approx(y: f32, x: f32) -> f32 {
     use std::f32::consts::{FRAC_PI_2, PI, TAU};
     let (ax, ay) = (x.abs(), y.abs());
-    let lo = ax.min(ay);
-    let hi = ax.max(ay);
+    // (Compares rather than `min`/`max`, whose NaN rules cost three instructions each:
+    // a NaN gives a NaN or an angle, either way a rough cell its callers discard.)
+    let lo = if ax < ay { ax } else { ay };
+    let hi = if ax < ay { ay } else { ax };
     let z = if hi > 0.0 { lo / hi } else { 0.0 };
     let z2 = z * z;
-    let mut a = z
-        * (0.999_999_9
-            + z2 * (-0.333_318_13
-                + z2 * (0.199_669_62
-                    + z2 * (-0.140_032_9
-                        + z2 * (0.098_688_65
-                            + z2 * (-0.058_829_75 + z2 * (0.023_780_52 + z2 * -0.004_559_792)))))));
+    const C: [f32; 8] = [
+        -0.004_559_792,
+        0.023_780_52,
+        -0.058_829_75,
+        0.098_688_65,
+        -0.140_032_9,
+        0.199_669_62,
+        -0.333_318_13,
+        0.999_999_9,
+    ];
+    let mut p = C[0];
+    for &c in &C[1..] {
+        p = p.mul_add(z2, c);
+    }
+    let mut a = z * p;
     a = if ay > ax { FRAC_PI_2 - a } else { a };
     a = if x < 0.0 { PI - a } else { a };
     if y < 0.0 {
@@ -404,7 +414,7 @@ fn exact_path_cell(
 /// it. Same IEEE operations in the same order (no contraction into FMA), so the same
 /// answers as the baseline build.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 unsafe fn ring_pass_avx2<const ROUGH: bool, const FIRST: bool>(
     r: &[f32],
     t: &SectorTerms,
@@ -418,7 +428,7 @@ unsafe fn ring_pass_avx2<const ROUGH: bool, const FIRST: bool>(
 /// [`ring_pass_body`] compiled for AVX-512 (16 lanes, 32 registers), chosen at run time
 /// where the CPU has it; the same answers, for the same reasons.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
 unsafe fn ring_pass_avx512<const ROUGH: bool, const FIRST: bool>(
     r: &[f32],
     t: &SectorTerms,
@@ -541,7 +551,7 @@ pub(crate) fn splat(
 
 /// [`splat_body`] compiled for AVX-512 (its own passes: the ring pass is chosen apart).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
 #[allow(clippy::too_many_arguments)]
 unsafe fn splat_avx512(
     trig: &CellTrig,
@@ -564,7 +574,7 @@ unsafe fn splat_avx512(
 
 /// [`splat_body`] compiled for AVX2.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 #[allow(clippy::too_many_arguments)]
 unsafe fn splat_avx2(
     trig: &CellTrig,
@@ -756,14 +766,24 @@ fn splat_body(
         let (dest, dist2) = (&mut dest[..n], &dist2[..n]);
         // The z-buffered writes; the few points near cell edges (unsure) are corrected
         // by the exact path first.
+        // (Found 64 at a time from a bit mask, so that the test vectorises.)
         let unsure = |c: u32| c & UNSURE != 0 && c != NOWHERE;
-        for j in 0..n {
-            if unsure(dest[j]) {
+        for w in 0..n.div_ceil(64) {
+            let chunk = &dest[64 * w..n.min(64 * w + 64)];
+            let mut m = chunk
+                .iter()
+                .enumerate()
+                .fold(0u64, |m, (t, &c)| m | u64::from(unsure(c)) << t);
+            while m != 0 {
+                let j = 64 * w + m.trailing_zeros() as usize;
+                m &= m - 1;
                 let rough = dest[j] & !UNSURE;
                 dest[j] = exact_path_cell(trig, r[j], &terms, &params, j, rough);
             }
-            put(keys, dest[j], dist2[j], src_values[j]);
-            if has_lists {
+        }
+        put_ring(isa, keys, dest, dist2, src_values);
+        if has_lists {
+            for j in 0..n {
                 for &(id, r) in src.list(src_cell(j)) {
                     let (cell, r2) = project(i, j, r);
                     put(keys, cell, r2, value(id));
@@ -793,6 +813,92 @@ fn splat_body(
                 .map(|&k| f32::from_bits(((k >> 32) as u32).min(inf)).sqrt()),
         );
     }
+}
+
+/// The z-buffered writes of a ring's points: `keys[c]` (the last key for `NOWHERE`)
+/// keeps the smaller of itself and the point's key (its squared distance's bits above
+/// its value). Vectorised where the CPU has AVX-512; the same keys in every build, the
+/// minimum not depending on the order of the writes.
+fn put_ring(isa: Isa, keys: &mut [u64], dest: &[u32], dist2: &[f32], values: &[PatchId]) {
+    let n = dest.len();
+    assert!(dist2.len() == n && values.len() == n && !keys.is_empty());
+    let done = match isa {
+        // SAFETY: the CPU has the instruction set (`isa` comes from `Isa::detect`).
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 => unsafe { put_ring_avx512(keys, dest, dist2, values) },
+        _ => 0,
+    };
+    let last = keys.len() - 1;
+    for j in done..n {
+        let slot = (dest[j] as usize).min(last);
+        let key = (u64::from(dist2[j].to_bits()) << 32) | u64::from(values[j]);
+        keys[slot] = keys[slot].min(key);
+    }
+}
+
+/// [`put_ring`]'s points in groups of eight, as far as they go (returns how many): the
+/// eight keys are gathered, each lane takes the minimum of its key and the keys of the
+/// earlier lanes bound for the same cell, and the results are scattered. Of lanes bound
+/// for one cell the last holds the minimum of all, and a scatter's later lanes overwrite
+/// its earlier ones (Intel SDM, VPSCATTERDQ), so each cell gets the minimum.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+unsafe fn put_ring_avx512(
+    keys: &mut [u64],
+    dest: &[u32],
+    dist2: &[f32],
+    values: &[PatchId],
+) -> usize {
+    use std::arch::x86_64::*;
+    let n = dest.len();
+    // Slots are at most `last` (below 2^26 + 1: see `UNSURE`), within i32's range.
+    let last = keys.len() - 1;
+    assert!(last < i32::MAX as usize);
+    let cap = _mm256_set1_epi32(last as i32);
+    // A slot no lane has, shifted into the lanes before the first.
+    let none = _mm512_set1_epi64(-1);
+    let base = keys.as_mut_ptr() as *mut i64;
+    let groups = n / 8;
+    for g in 0..groups {
+        let o = 8 * g;
+        // SAFETY: o + 8 ≤ n, the length of all three.
+        let (d, r, v) = unsafe {
+            (
+                _mm256_loadu_si256(dest.as_ptr().add(o) as *const __m256i),
+                _mm256_loadu_si256(dist2.as_ptr().add(o) as *const __m256i),
+                _mm256_loadu_si256(values.as_ptr().add(o) as *const __m256i),
+            )
+        };
+        let slot32 = _mm256_min_epu32(d, cap);
+        let slot = _mm512_cvtepu32_epi64(slot32);
+        let key = _mm512_or_si512(
+            _mm512_slli_epi64::<32>(_mm512_cvtepu32_epi64(r)),
+            _mm512_cvtepu32_epi64(v),
+        );
+        // Lane i against lane i − s, for s = 1 ..= 7 (the original keys: each lane
+        // meets every earlier one directly).
+        let mut m = key;
+        macro_rules! step {
+            ($s:literal) => {
+                let ss = _mm512_alignr_epi64::<{ 8 - $s }>(slot, none);
+                let ks = _mm512_alignr_epi64::<{ 8 - $s }>(key, none);
+                m = _mm512_mask_min_epu64(m, _mm512_cmpeq_epi64_mask(slot, ss), m, ks);
+            };
+        }
+        step!(1);
+        step!(2);
+        step!(3);
+        step!(4);
+        step!(5);
+        step!(6);
+        step!(7);
+        // SAFETY: every slot is at most `last`, within `keys`.
+        unsafe {
+            let old = _mm512_i32gather_epi64::<8>(slot32, base as *const i64);
+            _mm512_i32scatter_epi64::<8>(base, slot32, _mm512_min_epu64(old, m));
+        }
+    }
+    8 * groups
 }
 
 /// Working memory of [`splat`]: the z-buffer's keys.
@@ -844,7 +950,7 @@ pub(crate) fn fill_holes(
 
 /// [`fill_holes_body`] compiled for AVX-512 (integer work only: the same answers).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
 unsafe fn fill_holes_avx512(
     hemi: &Hemisphere,
     ids: &mut [PatchId],
@@ -856,7 +962,7 @@ unsafe fn fill_holes_avx512(
 
 /// [`fill_holes_body`] compiled for AVX2.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 unsafe fn fill_holes_avx2(
     hemi: &Hemisphere,
     ids: &mut [PatchId],
