@@ -1,5 +1,5 @@
-//! Estimates hemispheres at 180 × 720 in one mode, for instruction counts under
-//! `valgrind --tool=callgrind`: `MODE=none|exact|faithful|improved SCENE=loft|cube [GUESS=3] [SHARE=0.05] cargo run
+//! Estimates hemispheres at 180 × 720 (or RES=NθxNφ) in one mode, for instruction counts under
+//! `valgrind --tool=callgrind`: `MODE=none|exact|faithful|improved SCENE=loft|cube [GUESS=3] [SHARE=0.05] [RES=90x360] cargo run
 //! --release -p rad-estimator --example profile_estimate`.
 
 use rad_accel::{VoxelGrid, VoxelGridConfig};
@@ -34,7 +34,13 @@ fn main() {
         max_real_ray_share: std::env::var("SHARE").map_or(0.05, |s| s.parse().unwrap()),
         guess_stride: std::env::var("GUESS").map_or(3, |s| s.parse().unwrap()),
     };
-    let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).expect("valid resolution");
+    // RES=NθxNφ (180x720 unless given).
+    let (n_theta, n_phi) = std::env::var("RES").map_or((180, 720), |r| {
+        let (a, b) = r.split_once('x').expect("RES is NθxNφ");
+        (a.parse().expect("a number"), b.parse().expect("a number"))
+    });
+    let hemi =
+        Hemisphere::new(HemisphereConfig::exact(n_theta, n_phi)).expect("valid resolution");
     let scene = match std::env::var("SCENE").as_deref() {
         Ok("cube") => Scene::new(cube(10)),
         _ => Scene::new(loft()),
