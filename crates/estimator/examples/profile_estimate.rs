@@ -39,8 +39,7 @@ fn main() {
         let (a, b) = r.split_once('x').expect("RES is NθxNφ");
         (a.parse().expect("a number"), b.parse().expect("a number"))
     });
-    let hemi =
-        Hemisphere::new(HemisphereConfig::exact(n_theta, n_phi)).expect("valid resolution");
+    let hemi = Hemisphere::new(HemisphereConfig::exact(n_theta, n_phi)).expect("valid resolution");
     let scene = match std::env::var("SCENE").as_deref() {
         Ok("cube") => Scene::new(cube(10)),
         _ => Scene::new(loft()),

@@ -1007,27 +1007,42 @@ fn fill_holes_body(
         // alternating left first would: of a run of L holes the first ⌈L / 2⌉ take the
         // left one, the others the right one.
         //
-        // First, branch-free (most holes are alone or in pairs): a hole takes its left
-        // neighbour if written, else its right one if written. That fills runs of one
-        // and two holes, and the ends of longer ones as the rule does; what is left of a
-        // longer run is a run of L − 2 between the values its ends took, which the rule
-        // splits as it would have split the whole.
+        // First, branch-free (most runs are short): a hole whose nearest written cell
+        // either way is within `REACH` cells takes the nearer of the nearest written cells
+        // each way within `REACH`, the left on ties (none within `REACH` one way counts as
+        // farther). That fills runs of up to 2 `REACH` holes, and the `REACH` cells at
+        // each end of longer ones as the rule does; what is left of a longer run is a run
+        // of L − 2 `REACH` between the values its ends took, which the rule splits as it
+        // would have split the whole.
+        const REACH: usize = 3;
+        // The ring as it was, with `REACH` cells of wrap each side.
         before.clear();
+        before.extend((0..REACH).map(|t| ring[(REACH * n + t - REACH) % n]));
         before.extend_from_slice(ring);
+        before.extend((0..REACH).map(|t| ring[t % n]));
         // (As masks, so that it vectorises without blends.)
-        let take = |l: PatchId, c: PatchId, r: PatchId| {
-            let hole = |x: PatchId| 0u32.wrapping_sub(u32::from(x == HOLE));
-            let (hl, hc) = (hole(l), hole(c));
-            let side = (l & !hl) | (r & hl);
-            (c & !hc) | (side & hc)
-        };
-        ring[0] = take(before[n - 1], before[0], before[1 % n]);
-        ring[n - 1] = take(before[n.saturating_sub(2)], before[n - 1], before[0]);
-        if n > 2 {
-            let (l, c, r) = (&before[..n - 2], &before[1..n - 1], &before[2..]);
-            for (((x, &l), &c), &r) in ring[1..n - 1].iter_mut().zip(l).zip(c).zip(r) {
-                *x = take(l, c, r);
+        let written = |x: PatchId| 0u32.wrapping_sub(u32::from(x != HOLE));
+        let sel = |m: u32, a: u32, b: u32| (a & m) | (b & !m);
+        // Cells at distance k + 1 left and right, and the cell itself.
+        let left: [&[PatchId]; REACH] = std::array::from_fn(|k| &before[REACH - 1 - k..][..n]);
+        let right: [&[PatchId]; REACH] = std::array::from_fn(|k| &before[REACH + 1 + k..][..n]);
+        let c = &before[REACH..][..n];
+        for (j, x) in ring.iter_mut().enumerate() {
+            // The value and distance of the nearest written cell each way within
+            // `REACH` (`HOLE` and `REACH + 1` if none): farthest first, nearer ones
+            // taking over.
+            let (mut vl, mut dl) = (HOLE, REACH as u32 + 1);
+            let (mut vr, mut dr) = (HOLE, REACH as u32 + 1);
+            for k in (0..REACH).rev() {
+                let (l, r) = (left[k][j], right[k][j]);
+                let (wl, wr) = (written(l), written(r));
+                vl = sel(wl, l, vl);
+                dl = sel(wl, k as u32 + 1, dl);
+                vr = sel(wr, r, vr);
+                dr = sel(wr, k as u32 + 1, dr);
             }
+            let side = sel(0u32.wrapping_sub(u32::from(dl <= dr)), vl, vr);
+            *x = sel(written(c[j]), c[j], side);
         }
         if count(ring) == 0 {
             continue;
