@@ -503,6 +503,8 @@ pub(crate) struct Points<'a> {
     pub cells: &'a [u32],
     /// (point, value): values that go where a point goes, not z-buffered, by point.
     pub extras: &'a [(u32, PatchId)],
+    /// The largest of `dist` in each ring of the grid.
+    pub ring_max: &'a [f32],
 }
 
 /// Splats `points` (and the boundary lists of `src` that go with them) into `ids` (and
@@ -755,13 +757,8 @@ fn splat_body(
         };
         let n = n_phi;
         // Every point's cell and distance from the branch-free pass (rough cells need no
-        // corrections); `first` tells whether any point is far enough for first order
-        // (counted, so that it vectorises).
-        let first = r
-            .iter()
-            .map(|&r| u32::from(r > params.near_limit))
-            .sum::<u32>()
-            > 0;
+        // corrections); `first` tells whether any point is far enough for first order.
+        let first = points.ring_max[i] > params.near_limit;
         ring_pass(isa, rough, first, r, &terms, &params, ring as u32, out);
         let (dest, dist2) = (&mut dest[..n], &dist2[..n]);
         // The z-buffered writes; the few points near cell edges (unsure) are corrected
@@ -1159,6 +1156,7 @@ impl<'h> Estimator<'h> {
             values: &src.items.patch,
             cells: &[],
             extras: &[],
+            ring_max: src.ring_max(self.hemi),
         };
         let items = &mut out.items;
         let splat_into = |z: &mut ZBuffer| {

@@ -170,6 +170,7 @@ impl Estimator<'_> {
                 values,
                 cells: &[],
                 extras: &[],
+                ring_max: src.ring_max(hemi),
             }
         } else {
             let c = src.coarse(scene, hemi, stride);
@@ -178,6 +179,7 @@ impl Estimator<'_> {
                 values: &c.polygons,
                 cells: &c.cells,
                 extras: &c.extras,
+                ring_max: &c.ring_max,
             }
         };
         let ring_values = points.values;

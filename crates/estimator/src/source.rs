@@ -22,6 +22,8 @@ pub struct SourceHemisphere {
     polygons: std::sync::OnceLock<Vec<PolygonId>>,
     /// Its points on grids 2, 3 and 4 times coarser, made on first use likewise.
     coarse: [std::sync::OnceLock<CoarsePoints>; 3],
+    /// The largest distance of each ring, made on first use likewise.
+    ring_max: std::sync::OnceLock<Vec<f32>>,
 }
 
 /// H1's points on a grid s times coarser both ways: one point per s × s cells, the
@@ -35,6 +37,8 @@ pub(crate) struct CoarsePoints {
     pub cells: Vec<u32>,
     /// (coarse cell, polygon): the other polygons of its s × s cells, by cell.
     pub extras: Vec<(u32, PolygonId)>,
+    /// The largest of `dist` in each ring.
+    pub ring_max: Vec<f32>,
 }
 
 /// What [`SourceHemisphere::polygons`] gives a cell that sees no polygon (its ray
@@ -100,6 +104,7 @@ impl SourceHemisphere {
             list: Vec::new(),
             polygons: self.polygons.clone(),
             coarse: self.coarse.clone(),
+            ring_max: self.ring_max.clone(),
         }
     }
 
@@ -174,8 +179,17 @@ impl SourceHemisphere {
                     }
                 }
             }
+            out.ring_max = ring_max(&out.dist, n_phi);
             out
         })
+    }
+
+    /// The largest distance of each of `hemi`'s rings (∞ where a ray escaped), made once
+    /// (from `items`, which must not change after): whether a ring has a point far
+    /// enough for the first-order formulas, for each estimate made from it.
+    pub(crate) fn ring_max(&self, hemi: &Hemisphere) -> &[f32] {
+        self.ring_max
+            .get_or_init(|| ring_max(&self.items.dist, hemi.n_phi()))
     }
 
     /// The boundary-list entries of cell `c` (empty without lists).
@@ -186,4 +200,11 @@ impl SourceHemisphere {
         }
         &self.list[self.list_start[c] as usize..self.list_start[c + 1] as usize]
     }
+}
+
+/// The largest of each run of `n` in `dist` (distances: no NaN).
+fn ring_max(dist: &[f32], n: usize) -> Vec<f32> {
+    dist.chunks(n)
+        .map(|ring| ring.iter().fold(0.0f32, |m, &d| m.max(d)))
+        .collect()
 }
