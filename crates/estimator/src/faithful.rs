@@ -150,7 +150,9 @@ impl CellTrig {
             return None;
         }
         let c2 = q[2] * q[2] / r2;
-        let x = atan2_approx(q[1], q[0]) * self.inv_d_phi - self.shift;
+        // (Unfused: this runs outside the kernels compiled with FMA, and its first
+        // guess is corrected against the cell edges whatever its last bits.)
+        let x = atan2_approx::<false>(q[1], q[0]) * self.inv_d_phi - self.shift;
         Some(self.cell_from_parts(q, c2, x))
     }
 
@@ -202,8 +204,12 @@ const RING_TABLE: usize = 1 << 14;
 /// Chebyshev interpolation of atan(√t)/√t on [0, 1], degree 7 in t = z², by octant),
 /// plus the f32 roundings of the octant arithmetic (under 1e-6 rad in all), without
 /// branches, so that a ring's worth vectorises; 0 for (0, 0).
+///
+/// `FUSED` evaluates the polynomial by fused multiply-adds (`mul_add`, correctly rounded
+/// in every build: by the instruction in the AVX2 and AVX-512 builds, by libm, point by
+/// point, in the baseline one), else by separate products and sums.
 #[inline(always)]
-fn atan2_approx(y: f32, x: f32) -> f32 {
+fn atan2_approx<const FUSED: bool>(y: f32, x: f32) -> f32 {
     use std::f32::consts::{FRAC_PI_2, PI, TAU};
     let (ax, ay) = (x.abs(), y.abs());
     // (Compares rather than `min`/`max`, whose NaN rules cost three instructions each:
@@ -224,7 +230,7 @@ fn atan2_approx(y: f32, x: f32) -> f32 {
     ];
     let mut p = C[0];
     for &c in &C[1..] {
-        p = p.mul_add(z2, c);
+        p = if FUSED { p.mul_add(z2, c) } else { p * z2 + c };
     }
     let mut a = z * p;
     a = if ay > ax { FRAC_PI_2 - a } else { a };
@@ -335,10 +341,10 @@ fn ring_pass_body<const ROUGH: bool, const FIRST: bool>(
         let q1 = rs * sp[j] - d[1];
         let q2 = r * p.ct - d[2];
         let r2 = q0 * q0 + q1 * q1 + q2 * q2;
-        let x = atan2_approx(q1, q0) * p.inv_d_phi - p.shift;
+        let x = atan2_approx::<true>(q1, q0) * p.inv_d_phi - p.shift;
         // Rough cell: θ = atan2(|q_xy|, q_z), sector from x (wrapped once each way).
         let rho = (q0 * q0 + q1 * q1).sqrt();
-        let th = atan2_approx(rho, q2) * p.inv_d_theta;
+        let th = atan2_approx::<true>(rho, q2) * p.inv_d_theta;
         let th_c = th.max(0.0).min(ntf - 1.0);
         let x_c = (x + nf).max(0.0).min(3.0 * nf);
         // SAFETY: finite and in range after the clamps (`max` drops NaN).
@@ -410,9 +416,10 @@ fn exact_path_cell(
     trig.cell_near([q0, q1, q2], q2 * q2 / r2, k, l) as u32
 }
 
-/// [`ring_pass_body`] compiled for AVX2 (8 lanes), chosen at run time where the CPU has
-/// it. Same IEEE operations in the same order (no contraction into FMA), so the same
-/// answers as the baseline build.
+/// [`ring_pass_body`] compiled for AVX2 and FMA (8 lanes), chosen at run time where the
+/// CPU has them. Same IEEE operations in the same order (no contraction into FMA beyond
+/// the `mul_add` written, which every build rounds alike), so the same answers as the
+/// baseline build.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn ring_pass_avx2<const ROUGH: bool, const FIRST: bool>(
@@ -759,6 +766,10 @@ fn splat_body(
         // Every point's cell and distance from the branch-free pass (rough cells need no
         // corrections); `first` tells whether any point is far enough for first order.
         let first = points.ring_max[i] > params.near_limit;
+        debug_assert!(
+            first || !r.iter().any(|&r| r > params.near_limit),
+            "a stale ring_max"
+        );
         ring_pass(isa, rough, first, r, &terms, &params, ring as u32, out);
         let (dest, dist2) = (&mut dest[..n], &dist2[..n]);
         // The z-buffered writes; the few points near cell edges (unsure) are corrected
@@ -819,13 +830,21 @@ fn splat_body(
 fn put_ring(isa: Isa, keys: &mut [u64], dest: &[u32], dist2: &[f32], values: &[PatchId]) {
     let n = dest.len();
     assert!(dist2.len() == n && values.len() == n && !keys.is_empty());
+    assert!(
+        isa <= Isa::supported(),
+        "{isa:?} is not available on this CPU"
+    );
+    let last = keys.len() - 1;
+    debug_assert!(
+        dest.iter().all(|&c| (c as usize) < last || c == NOWHERE),
+        "a cell out of range"
+    );
     let done = match isa {
-        // SAFETY: the CPU has the instruction set (`isa` comes from `Isa::detect`).
+        // SAFETY: the CPU has the instruction set (asserted).
         #[cfg(target_arch = "x86_64")]
         Isa::Avx512 => unsafe { put_ring_avx512(keys, dest, dist2, values) },
         _ => 0,
     };
-    let last = keys.len() - 1;
     for j in done..n {
         let slot = (dest[j] as usize).min(last);
         let key = (u64::from(dist2[j].to_bits()) << 32) | u64::from(values[j]);
@@ -838,6 +857,10 @@ fn put_ring(isa: Isa, keys: &mut [u64], dest: &[u32], dist2: &[f32], values: &[P
 /// earlier lanes bound for the same cell, and the results are scattered. Of lanes bound
 /// for one cell the last holds the minimum of all, and a scatter's later lanes overwrite
 /// its earlier ones (Intel SDM, VPSCATTERDQ), so each cell gets the minimum.
+///
+/// # Safety
+/// The CPU has AVX-512 (F, VL, DQ, BW) and FMA; `dist2` and `values` are as long as
+/// `dest`, and `keys` is not empty.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
 unsafe fn put_ring_avx512(
@@ -981,7 +1004,7 @@ fn fill_holes_body(
     let count = |x: &[PatchId]| x.iter().map(|&id| u32::from(id == HOLE)).sum::<u32>() as usize;
     let (mut holes, mut hole_ff) = (0, 0.0);
     // A ring as it was before the first filling pass, and the runs of holes left after.
-    let mut before: Vec<PatchId> = Vec::with_capacity(n);
+    let mut before: Vec<PatchId> = Vec::with_capacity(n + 6);
     let mut runs: Vec<(usize, usize)> = Vec::new();
     for (i, ff) in hemi.ring_form_factors().iter().enumerate() {
         let ring = &mut ids[i * n..(i + 1) * n];
