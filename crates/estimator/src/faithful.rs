@@ -1003,8 +1003,11 @@ fn fill_holes_body(
     // Holes of a slice, counted so that it vectorises.
     let count = |x: &[PatchId]| x.iter().map(|&id| u32::from(id == HOLE)).sum::<u32>() as usize;
     let (mut holes, mut hole_ff) = (0, 0.0);
-    // A ring as it was before the first filling pass, and the runs of holes left after.
-    let mut before: Vec<PatchId> = Vec::with_capacity(n + 6);
+    // How far the first, branch-free pass looks each way (see below).
+    const REACH: usize = 3;
+    // A ring as it was before the first filling pass (with `REACH` cells of wrap each
+    // side), and the runs of holes left after.
+    let mut before: Vec<PatchId> = Vec::with_capacity(n + 2 * REACH);
     let mut runs: Vec<(usize, usize)> = Vec::new();
     for (i, ff) in hemi.ring_form_factors().iter().enumerate() {
         let ring = &mut ids[i * n..(i + 1) * n];
@@ -1034,8 +1037,6 @@ fn fill_holes_body(
         // each end of longer ones as the rule does; what is left of a longer run is a run
         // of L − 2 `REACH` between the values its ends took, which the rule splits as it
         // would have split the whole.
-        const REACH: usize = 3;
-        // The ring as it was, with `REACH` cells of wrap each side.
         before.clear();
         before.extend((0..REACH).map(|t| ring[(REACH * n + t - REACH) % n]));
         before.extend_from_slice(ring);
