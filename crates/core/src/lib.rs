@@ -18,9 +18,8 @@ pub type PatchId = u32;
 
 /// The vector instruction sets kernels are compiled for (baseline, and under
 /// `#[target_feature]`), one chosen at run time. Every build performs the same IEEE
-/// operations in the same order (no contraction into FMA: fused multiply-adds only where
-/// the code says `mul_add`, which is correctly rounded in every build, by the library
-/// where the baseline has no instruction), so all give the same bits.
+/// operations in the same order (no contraction into FMA), so all give the same bits;
+/// a kernel that fuses where the CPU can must show that its answers do not change.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Isa {
     /// What the target guarantees (SSE2 on x86_64).

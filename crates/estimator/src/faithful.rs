@@ -150,8 +150,9 @@ impl CellTrig {
             return None;
         }
         let c2 = q[2] * q[2] / r2;
-        // (Unfused: this runs outside the kernels compiled with FMA, and its first
-        // guess is corrected against the cell edges whatever its last bits.)
+        // (Unfused: this runs outside the kernels compiled with FMA, where `mul_add` is a
+        // libm call, and its first guess is corrected against the cell edges whatever its
+        // last bits.)
         let x = atan2_approx::<false>(q[1], q[0]) * self.inv_d_phi - self.shift;
         Some(self.cell_from_parts(q, c2, x))
     }
@@ -205,9 +206,8 @@ const RING_TABLE: usize = 1 << 14;
 /// plus the f32 roundings of the octant arithmetic (under 1e-6 rad in all), without
 /// branches, so that a ring's worth vectorises; 0 for (0, 0).
 ///
-/// `FUSED` evaluates the polynomial by fused multiply-adds (`mul_add`, correctly rounded
-/// in every build: by the instruction in the AVX2 and AVX-512 builds, by libm, point by
-/// point, in the baseline one), else by separate products and sums.
+/// `FUSED` evaluates the polynomial by fused multiply-adds (`mul_add`: for the builds with
+/// an FMA instruction), else by separate products and sums.
 #[inline(always)]
 fn atan2_approx<const FUSED: bool>(y: f32, x: f32) -> f32 {
     use std::f32::consts::{FRAC_PI_2, PI, TAU};
@@ -296,8 +296,14 @@ struct RingOut<'a> {
 ///
 /// Without `FIRST` no point takes the first-order path (for rings where none is far
 /// enough): the same answers, without computing it.
+///
+/// `FUSED` evaluates the angle polynomial by fused multiply-adds (in the builds with an
+/// FMA instruction, and only without `ROUGH`): a rough cell's last bits change, but not
+/// which cells are sure (the polynomial's error stays far inside `EDGE_MARGIN`) nor, after
+/// [`exact_path_cell`], any answer; rough mode's answers are its rough cells, so it
+/// never fuses, and every build gives it the same bits.
 #[inline(always)]
-fn ring_pass_body<const ROUGH: bool, const FIRST: bool>(
+fn ring_pass_body<const ROUGH: bool, const FIRST: bool, const FUSED: bool>(
     r: &[f32],
     t: &SectorTerms,
     p: &RingParams,
@@ -341,10 +347,10 @@ fn ring_pass_body<const ROUGH: bool, const FIRST: bool>(
         let q1 = rs * sp[j] - d[1];
         let q2 = r * p.ct - d[2];
         let r2 = q0 * q0 + q1 * q1 + q2 * q2;
-        let x = atan2_approx::<true>(q1, q0) * p.inv_d_phi - p.shift;
+        let x = atan2_approx::<FUSED>(q1, q0) * p.inv_d_phi - p.shift;
         // Rough cell: θ = atan2(|q_xy|, q_z), sector from x (wrapped once each way).
         let rho = (q0 * q0 + q1 * q1).sqrt();
-        let th = atan2_approx::<true>(rho, q2) * p.inv_d_theta;
+        let th = atan2_approx::<FUSED>(rho, q2) * p.inv_d_theta;
         let th_c = th.max(0.0).min(ntf - 1.0);
         let x_c = (x + nf).max(0.0).min(3.0 * nf);
         // SAFETY: finite and in range after the clamps (`max` drops NaN).
@@ -417,9 +423,9 @@ fn exact_path_cell(
 }
 
 /// [`ring_pass_body`] compiled for AVX2 and FMA (8 lanes), chosen at run time where the
-/// CPU has them. Same IEEE operations in the same order (no contraction into FMA beyond
-/// the `mul_add` written, which every build rounds alike), so the same answers as the
-/// baseline build.
+/// CPU has them. Same IEEE operations in the same order (no contraction into FMA), but
+/// for the fused angle polynomial without `ROUGH`, so the same answers as the baseline
+/// build (the same bits in rough mode; the same cells once corrected otherwise).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn ring_pass_avx2<const ROUGH: bool, const FIRST: bool>(
@@ -429,7 +435,11 @@ unsafe fn ring_pass_avx2<const ROUGH: bool, const FIRST: bool>(
     ring: u32,
     out: RingOut,
 ) {
-    ring_pass_body::<ROUGH, FIRST>(r, t, p, ring, out)
+    if ROUGH {
+        ring_pass_body::<ROUGH, FIRST, false>(r, t, p, ring, out)
+    } else {
+        ring_pass_body::<ROUGH, FIRST, true>(r, t, p, ring, out)
+    }
 }
 
 /// [`ring_pass_body`] compiled for AVX-512 (16 lanes, 32 registers), chosen at run time
@@ -443,7 +453,11 @@ unsafe fn ring_pass_avx512<const ROUGH: bool, const FIRST: bool>(
     ring: u32,
     out: RingOut,
 ) {
-    ring_pass_body::<ROUGH, FIRST>(r, t, p, ring, out)
+    if ROUGH {
+        ring_pass_body::<ROUGH, FIRST, false>(r, t, p, ring, out)
+    } else {
+        ring_pass_body::<ROUGH, FIRST, true>(r, t, p, ring, out)
+    }
 }
 
 fn ring_pass_with<const ROUGH: bool, const FIRST: bool>(
@@ -464,7 +478,7 @@ fn ring_pass_with<const ROUGH: bool, const FIRST: bool>(
         Isa::Avx512 => unsafe { ring_pass_avx512::<ROUGH, FIRST>(r, t, p, ring, out) },
         #[cfg(target_arch = "x86_64")]
         Isa::Avx2 => unsafe { ring_pass_avx2::<ROUGH, FIRST>(r, t, p, ring, out) },
-        _ => ring_pass_body::<ROUGH, FIRST>(r, t, p, ring, out),
+        _ => ring_pass_body::<ROUGH, FIRST, false>(r, t, p, ring, out),
     }
 }
 
