@@ -4,7 +4,7 @@ use anyhow::{Context, Result};
 use rad_geometry::file::scene_desc_to_json;
 use rad_geometry::scenes::{cornell_box, cube, loft, CORNELL_PATCH_MM};
 use rad_geometry::Scene;
-use rad_repro::output::write_atomic;
+use rad_pipeline::output::write_atomic;
 use rad_repro::Provenance;
 use std::path::Path;
 use std::time::Instant;
@@ -55,17 +55,17 @@ pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Resul
     let mut shared: Option<f32> = None;
     for (stem, img, group) in &r.radiosity.images {
         let exr = out.join(format!("{stem}.exr"));
-        rad_repro::images::write_exr(&exr, img)
+        rad_pipeline::images::write_exr(&exr, img)
             .with_context(|| format!("writing {}", exr.display()))?;
         let exposure = if *group {
-            *shared.get_or_insert_with(|| rad_repro::images::auto_exposure(img))
+            *shared.get_or_insert_with(|| rad_pipeline::images::auto_exposure(img))
         } else if stem.contains("reldiff") {
             1.0
         } else {
-            rad_repro::images::auto_exposure(img)
+            rad_pipeline::images::auto_exposure(img)
         };
         let png = out.join(format!("{stem}.png"));
-        rad_repro::images::write_png(&png, img, exposure)
+        rad_pipeline::images::write_png(&png, img, exposure)
             .with_context(|| format!("writing {}", png.display()))?;
         eprintln!("  wrote {} and .png", exr.display());
     }

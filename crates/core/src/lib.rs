@@ -11,13 +11,120 @@ pub use rgb::Rgb;
 
 pub use glam::Vec3;
 
+/// Evaluates `$body` compiled for the instruction set `$isa` (an [`Isa`], checked
+/// against the CPU: see [`Isa::checked`]), with `$name` bound to it as a constant, so
+/// that the body may pick const-generic variants by it (the dead ones are removed).
+///
+/// The body runs inside a closure inlined into a function with that set's target
+/// features, so every `#[inline(always)]` function it calls is compiled for them too:
+/// one body, three builds, no hand-written `#[target_feature]` wrapper. The builds
+/// perform the same IEEE operations in the same order (no FMA contraction), so they
+/// give the same bits unless the body itself chooses otherwise by `$name`.
+///
+/// ```
+/// use rad_core::{with_isa, Isa};
+/// #[inline(always)]
+/// fn double(x: &mut [f32]) {
+///     x.iter_mut().for_each(|v| *v *= 2.0);
+/// }
+/// let mut x = [1.0f32; 64];
+/// with_isa!(Isa::detect(), |ISA| double(&mut x));
+/// assert_eq!(x[63], 2.0);
+/// ```
+///
+/// The second form, `with_isa!(isa, |ISA| fn(a: A = value, ...) -> R { body })`, makes
+/// the compiled function take its inputs as arguments (so that LLVM sees, say, the
+/// slices as `noalias` parameters, as it does for a hand-written wrapper): for hot
+/// kernels called many times a hemisphere, where that measurably helps.
+#[macro_export]
+macro_rules! with_isa {
+    ($isa:expr, |$name:ident| fn($($arg:ident: $ty:ty = $val:expr),* $(,)?) $(-> $ret:ty)? $body:block) => {
+        match $crate::Isa::checked($isa) {
+            #[cfg(target_arch = "x86_64")]
+            $crate::Isa::Avx512 => {
+                #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+                #[allow(clippy::too_many_arguments)]
+                fn compiled_for_avx512($($arg: $ty),*) $(-> $ret)? {
+                    #[allow(non_upper_case_globals, dead_code)]
+                    const $name: $crate::Isa = $crate::Isa::Avx512;
+                    $body
+                }
+                // SAFETY: the CPU runs AVX-512 (checked above).
+                unsafe { compiled_for_avx512($($val),*) }
+            }
+            #[cfg(target_arch = "x86_64")]
+            $crate::Isa::Avx2 => {
+                #[target_feature(enable = "avx2,fma")]
+                #[allow(clippy::too_many_arguments)]
+                fn compiled_for_avx2($($arg: $ty),*) $(-> $ret)? {
+                    #[allow(non_upper_case_globals, dead_code)]
+                    const $name: $crate::Isa = $crate::Isa::Avx2;
+                    $body
+                }
+                // SAFETY: the CPU runs AVX2 and FMA (checked above).
+                unsafe { compiled_for_avx2($($val),*) }
+            }
+            _ => {
+                #[allow(clippy::too_many_arguments)]
+                fn baseline($($arg: $ty),*) $(-> $ret)? {
+                    #[allow(non_upper_case_globals, dead_code)]
+                    const $name: $crate::Isa = $crate::Isa::Base;
+                    $body
+                }
+                baseline($($val),*)
+            }
+        }
+    };
+    ($isa:expr, |$name:ident| $body:expr) => {
+        match $crate::Isa::checked($isa) {
+            #[cfg(target_arch = "x86_64")]
+            $crate::Isa::Avx512 => {
+                #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+                fn compiled_for_avx512<R>(body: impl FnOnce() -> R) -> R {
+                    body()
+                }
+                #[allow(non_upper_case_globals, dead_code)]
+                const $name: $crate::Isa = $crate::Isa::Avx512;
+                // SAFETY: the CPU runs AVX-512 (checked above).
+                unsafe {
+                    compiled_for_avx512(
+                        #[inline(always)]
+                        || $body,
+                    )
+                }
+            }
+            #[cfg(target_arch = "x86_64")]
+            $crate::Isa::Avx2 => {
+                #[target_feature(enable = "avx2,fma")]
+                fn compiled_for_avx2<R>(body: impl FnOnce() -> R) -> R {
+                    body()
+                }
+                #[allow(non_upper_case_globals, dead_code)]
+                const $name: $crate::Isa = $crate::Isa::Avx2;
+                // SAFETY: the CPU runs AVX2 and FMA (checked above).
+                unsafe {
+                    compiled_for_avx2(
+                        #[inline(always)]
+                        || $body,
+                    )
+                }
+            }
+            _ => {
+                #[allow(non_upper_case_globals, dead_code)]
+                const $name: $crate::Isa = $crate::Isa::Base;
+                $body
+            }
+        }
+    };
+}
+
 /// Index of a polygon in its scene.
 pub type PolygonId = u32;
 /// Index of a patch (one texel of a polygon's patch texture) in its scene.
 pub type PatchId = u32;
 
 /// The vector instruction sets kernels are compiled for (baseline, and under
-/// `#[target_feature]`), one chosen at run time. Every build performs the same IEEE
+/// `#[target_feature]` through [`with_isa!`]), one chosen at run time. Every build performs the same IEEE
 /// operations in the same order (no contraction into FMA), so all give the same bits;
 /// a kernel that fuses where the CPU can must show that its answers do not change.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -47,8 +154,26 @@ impl Isa {
         })
     }
 
-    /// The widest set this CPU offers.
+    /// The widest set this CPU offers (detected once).
     pub fn supported() -> Isa {
+        static SUPPORTED: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
+        *SUPPORTED.get_or_init(Isa::probe)
+    }
+
+    /// `self`, after checking that this CPU runs it.
+    ///
+    /// # Panics
+    /// If it does not (a kernel compiled for it would be undefined behaviour there).
+    #[inline]
+    pub fn checked(self) -> Isa {
+        assert!(
+            self <= Isa::supported(),
+            "{self:?} is not available on this CPU"
+        );
+        self
+    }
+
+    fn probe() -> Isa {
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::is_x86_feature_detected as has;

@@ -26,7 +26,7 @@ fn config(mode: Mode) -> EstimatorConfig {
         },
         boundary_lists: false,
         max_real_ray_share: 0.05,
-        // coherad's default (`rad_repro::default_estimator`).
+        // coherad's default (`rad_pipeline::default_estimator`).
         guess_stride: 3,
     }
 }
@@ -76,7 +76,7 @@ fn bench(c: &mut Criterion) {
             |b| {
                 b.iter(|| {
                     k = (k + 1) % pairs.len();
-                    est.faithful_into(&scene, &sources[pairs[k].0], pairs[k].1, &faithful, &mut fe);
+                    est.faithful(&scene, &sources[pairs[k].0], pairs[k].1, &faithful, &mut fe);
                     black_box(&fe);
                 })
             },
@@ -89,7 +89,7 @@ fn bench(c: &mut Criterion) {
                     k = (k + 1) % pairs.len();
                     // An abandoned estimate (too many real rays) is cast exactly, as
                     // the schedule does: that is part of the mode's cost.
-                    est.improved_or_cast_into(
+                    est.improved(
                         &scene,
                         &grid,
                         &sources[pairs[k].0],

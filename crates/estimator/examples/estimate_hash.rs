@@ -8,7 +8,7 @@ use rad_estimator::{
 };
 use rad_geometry::scenes::{cornell_box, cube, loft, CORNELL_PATCH_MM};
 use rad_geometry::Scene;
-use rad_hemisphere::{Hemisphere, HemisphereConfig};
+use rad_hemisphere::{Caster, Hemisphere, HemisphereConfig, Scan};
 use std::hash::{Hash, Hasher};
 
 fn main() {
@@ -49,13 +49,36 @@ fn main() {
             };
             let (mut real, mut real3, mut n) = (0, 0, 0);
             let mut e3 = rad_estimator::ImprovedEstimate::default();
+            let (mut scan, mut e_scan, mut differ) = (
+                Scan.scratch(),
+                rad_estimator::ImprovedEstimate::default(),
+                0,
+            );
             let t = std::time::Instant::now();
             for k in 0..12 {
                 let w = &all[(k * 509 + 100) % all.len()];
                 let src =
                     SourceHemisphere::cast(&scene, &grid, &hemi, w.centre, false, &mut scratch);
+                // The same through the polygon scan (centres and real rays): the same bits.
+                let src_scan =
+                    SourceHemisphere::cast(&scene, &Scan, &hemi, w.centre, false, &mut scan);
+                differ += usize::from(src_scan.items() != src.items());
                 for &p in &w.estimated {
-                    let e = est.improved(&scene, &grid, &src, p, &config, &mut scratch);
+                    let mut e = rad_estimator::ImprovedEstimate::default();
+                    est.improved(&scene, &grid, &src, p, &config, &mut scratch, &mut e);
+                    for stride in [1, 3] {
+                        let cfg = EstimatorConfig {
+                            guess_stride: stride,
+                            ..config
+                        };
+                        let mut g = rad_estimator::ImprovedEstimate::default();
+                        est.improved(&scene, &grid, &src, p, &cfg, &mut scratch, &mut g);
+                        est.improved(&scene, &Scan, &src_scan, p, &cfg, &mut scan, &mut e_scan);
+                        differ += usize::from(
+                            (&g.items, g.holes, g.real_rays)
+                                != (&e_scan.items, e_scan.holes, e_scan.real_rays),
+                        );
+                    }
                     e.items.patch.hash(&mut h);
                     for d in &e.items.dist {
                         d.to_bits().hash(&mut h);
@@ -68,7 +91,7 @@ fn main() {
                         ..config
                     };
                     // (Into a reused estimate: the hash checks that reuse too.)
-                    est.improved_into(&scene, &grid, &src, p, &coarse, &mut scratch, &mut e3);
+                    est.improved(&scene, &grid, &src, p, &coarse, &mut scratch, &mut e3);
                     let e = &e3;
                     e.items.patch.hash(&mut h3);
                     for d in &e.items.dist {
@@ -76,7 +99,8 @@ fn main() {
                     }
                     e.holes.hash(&mut h3);
                     real3 += e.real_rays;
-                    let f = est.faithful(&scene, &src, p, &faithful);
+                    let mut f = rad_estimator::Estimate::default();
+                    est.faithful(&scene, &src, p, &faithful, &mut f);
                     f.items.patch.hash(&mut hf);
                     for d in &f.items.dist {
                         d.to_bits().hash(&mut hf);
@@ -84,7 +108,7 @@ fn main() {
                     (f.holes, f.hole_ff.to_bits()).hash(&mut hf);
                 }
             }
-            println!("{name} {res:?}: {n} estimates, {real} real rays, improved {:016x}, faithful {:016x}, improved /3 {:016x} ({real3} real rays), {:.1} ms", h.finish(), hf.finish(), h3.finish(), t.elapsed().as_secs_f64() * 1e3);
+            println!("{name} {res:?}: {n} estimates, {real} real rays, improved {:016x}, faithful {:016x}, improved /3 {:016x} ({real3} real rays), {differ} differing through the scan, {:.1} ms", h.finish(), hf.finish(), h3.finish(), t.elapsed().as_secs_f64() * 1e3);
         }
     }
 }

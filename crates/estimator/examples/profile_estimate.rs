@@ -69,25 +69,18 @@ fn main() {
                     exact_buf.patch.len()
                 }
                 Mode::Faithful => {
-                    est.faithful_into(&scene, &src, p, &config, &mut faithful);
+                    est.faithful(&scene, &src, p, &config, &mut faithful);
                     faithful.items.patch.len()
                 }
                 Mode::Improved => {
                     // Abandoned estimates cast exactly, as the schedule and the bench do.
-                    est.improved_or_cast_into(
-                        &scene,
-                        &grid,
-                        &src,
-                        p,
-                        &config,
-                        &mut scratch,
-                        &mut improved,
-                    );
+                    let outcome =
+                        est.improved(&scene, &grid, &src, p, &config, &mut scratch, &mut improved);
                     tests += improved.tests;
                     real += improved.real_rays;
                     holes += improved.holes;
                     n_est += 1;
-                    abandoned += usize::from(improved.abandoned);
+                    abandoned += usize::from(outcome == rad_estimator::Outcome::CastExactly);
                     improved.items.patch.len()
                 }
             };

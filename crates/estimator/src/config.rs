@@ -3,13 +3,26 @@
 use crate::Error;
 
 /// Which estimator.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Mode {
     /// The report's method: reproject patch ids and fill holes; casts no rays.
     Faithful,
     /// Reproject polygons, then resolve every cell with its own ray against the polygons
     /// guessed for it and its 8 neighbours (a real ray where all of them miss).
     Improved,
+}
+
+impl Mode {
+    /// Both modes, the report's first.
+    pub const ALL: [Mode; 2] = [Mode::Faithful, Mode::Improved];
+
+    /// Its stable name: `faithful` or `improved`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Faithful => "faithful",
+            Mode::Improved => "improved",
+        }
+    }
 }
 
 /// How a cell that nothing lands in (a hole) is filled.

@@ -3,13 +3,13 @@
 
 use crate::config::{EstimatorConfig, Mode};
 use crate::faithful::{Estimate, Estimator};
-use crate::improved::ImprovedEstimate;
+use crate::improved::{ImprovedEstimate, Outcome};
 use crate::schedule::windows;
 use crate::source::SourceHemisphere;
 use crate::Error;
-use rad_core::{PatchId, RayCast};
+use rad_core::PatchId;
 use rad_geometry::Scene;
-use rad_hemisphere::{Hemisphere, Row, RowAccumulator};
+use rad_hemisphere::{Caster, Hemisphere, Row, RowAccumulator};
 use rayon::prelude::*;
 use std::collections::HashMap;
 
@@ -54,8 +54,8 @@ pub struct EstimateStats {
 /// Rows of `patches` by the window schedule: the exact hemisphere of each window's centre
 /// (with boundary lists if configured) and estimates of the others. Windows run in
 /// parallel; the result does not depend on the thread count. `progress(n)` after each
-/// window.
-pub fn estimate_rows<C: RayCast>(
+/// window, with the number of rows done so far.
+pub fn estimate_rows<C: Caster>(
     scene: &Scene,
     caster: &C,
     hemi: &Hemisphere,
@@ -84,7 +84,7 @@ pub fn estimate_rows<C: RayCast>(
         .map_init(
             || {
                 (
-                    caster.new_scratch(),
+                    caster.scratch(),
                     RowAccumulator::new(n_patches),
                     Estimate::default(),
                     ImprovedEstimate::default(),
@@ -102,7 +102,7 @@ pub fn estimate_rows<C: RayCast>(
                     scratch,
                 );
                 if wanted.contains(&w.centre) {
-                    let row = hemi.row_from_items(w.centre, &src.items, acc);
+                    let row = hemi.row_from_items(w.centre, src.items(), acc);
                     out.push((
                         w.centre,
                         EstimatedRow {
@@ -123,13 +123,14 @@ pub fn estimate_rows<C: RayCast>(
                     let clock = std::time::Instant::now();
                     let (items, holes, real_rays, tests, fallback) = match config.mode {
                         Mode::Faithful => {
-                            est.faithful_into(scene, &src, p, config, faithful);
+                            est.faithful(scene, &src, p, config, faithful);
                             (&faithful.items, faithful.holes, 0, 0, false)
                         }
                         Mode::Improved => {
                             let e = &mut *improved;
-                            est.improved_or_cast_into(scene, caster, &src, p, config, scratch, e);
-                            (&e.items, e.holes, e.real_rays, e.tests, e.abandoned)
+                            let outcome = est.improved(scene, caster, &src, p, config, scratch, e);
+                            let cast = outcome == Outcome::CastExactly;
+                            (&e.items, e.holes, e.real_rays, e.tests, cast)
                         }
                     };
                     let row = hemi.row_from_items(p, items, acc);
@@ -150,7 +151,8 @@ pub fn estimate_rows<C: RayCast>(
                         clock.elapsed().as_secs_f64(),
                     ));
                 }
-                progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
+                let rows = out.len();
+                progress(done.fetch_add(rows, std::sync::atomic::Ordering::Relaxed) + rows);
                 out
             },
         )

@@ -4,7 +4,7 @@
 use crate::config::{EstimatorConfig, HoleFill, Reprojection, ThresholdTest};
 use crate::reproject::Motion;
 use crate::source::SourceHemisphere;
-use rad_core::{Isa, PatchId};
+use rad_core::{with_isa, Isa, PatchId};
 use rad_geometry::Scene;
 use rad_hemisphere::{Hemisphere, ItemBuffer};
 
@@ -422,44 +422,11 @@ fn exact_path_cell(
     trig.cell_near([q0, q1, q2], q2 * q2 / r2, k, l) as u32
 }
 
-/// [`ring_pass_body`] compiled for AVX2 and FMA (8 lanes), chosen at run time where the
-/// CPU has them. Same IEEE operations in the same order (no contraction into FMA), but
-/// for the fused angle polynomial without `ROUGH`, so the same answers as the baseline
-/// build (the same bits in rough mode; the same cells once corrected otherwise).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn ring_pass_avx2<const ROUGH: bool, const FIRST: bool>(
-    r: &[f32],
-    t: &SectorTerms,
-    p: &RingParams,
-    ring: u32,
-    out: RingOut,
-) {
-    if ROUGH {
-        ring_pass_body::<ROUGH, FIRST, false>(r, t, p, ring, out)
-    } else {
-        ring_pass_body::<ROUGH, FIRST, true>(r, t, p, ring, out)
-    }
-}
-
-/// [`ring_pass_body`] compiled for AVX-512 (16 lanes, 32 registers), chosen at run time
-/// where the CPU has it; the same answers, for the same reasons.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
-unsafe fn ring_pass_avx512<const ROUGH: bool, const FIRST: bool>(
-    r: &[f32],
-    t: &SectorTerms,
-    p: &RingParams,
-    ring: u32,
-    out: RingOut,
-) {
-    if ROUGH {
-        ring_pass_body::<ROUGH, FIRST, false>(r, t, p, ring, out)
-    } else {
-        ring_pass_body::<ROUGH, FIRST, true>(r, t, p, ring, out)
-    }
-}
-
+/// [`ring_pass_body`] compiled for `isa` (checked against the CPU). The AVX2 and
+/// AVX-512 builds (8 and 16 lanes) perform the same IEEE operations in the same order
+/// (no contraction into FMA), but for the fused angle polynomial without `ROUGH`, so
+/// the same answers as the baseline build (the same bits in rough mode; the same cells
+/// once corrected otherwise).
 fn ring_pass_with<const ROUGH: bool, const FIRST: bool>(
     isa: Isa,
     r: &[f32],
@@ -468,18 +435,11 @@ fn ring_pass_with<const ROUGH: bool, const FIRST: bool>(
     ring: u32,
     out: RingOut,
 ) {
-    assert!(
-        isa <= Isa::supported(),
-        "{isa:?} is not available on this CPU"
-    );
-    match isa {
-        // SAFETY: the CPU has the instruction set (asserted).
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 => unsafe { ring_pass_avx512::<ROUGH, FIRST>(r, t, p, ring, out) },
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { ring_pass_avx2::<ROUGH, FIRST>(r, t, p, ring, out) },
-        _ => ring_pass_body::<ROUGH, FIRST, false>(r, t, p, ring, out),
-    }
+    with_isa!(isa, |ISA| if ROUGH || ISA == Isa::Base {
+        ring_pass_body::<ROUGH, FIRST, false>(r, t, p, ring, out)
+    } else {
+        ring_pass_body::<ROUGH, FIRST, true>(r, t, p, ring, out)
+    })
 }
 
 /// [`ring_pass_body`] compiled for `isa` (one this CPU has), `first` telling whether any
@@ -551,71 +511,10 @@ pub(crate) fn splat(
     z: &mut ZBuffer,
     extras: &mut Vec<(u32, PatchId)>,
 ) {
-    let isa = Isa::detect();
-    match isa {
-        // SAFETY: the CPU has the instruction set.
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 => unsafe {
-            splat_avx512(
-                trig, src, m, config, rough, points, value, ids, dist, z, extras,
-            )
-        },
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe {
-            splat_avx2(
-                trig, src, m, config, rough, points, value, ids, dist, z, extras,
-            )
-        },
-        _ => splat_body(
-            isa, trig, src, m, config, rough, points, value, ids, dist, z, extras,
-        ),
-    }
-}
-
-/// [`splat_body`] compiled for AVX-512 (its own passes: the ring pass is chosen apart).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
-#[allow(clippy::too_many_arguments)]
-unsafe fn splat_avx512(
-    trig: &CellTrig,
-    src: &SourceHemisphere,
-    m: &Motion,
-    config: &EstimatorConfig,
-    rough: bool,
-    points: Points,
-    value: impl Fn(PatchId) -> PatchId,
-    ids: &mut Vec<PatchId>,
-    dist: Option<&mut Vec<f32>>,
-    z: &mut ZBuffer,
-    extras: &mut Vec<(u32, PatchId)>,
-) {
-    let isa = Isa::Avx512;
-    splat_body(
-        isa, trig, src, m, config, rough, points, value, ids, dist, z, extras,
-    )
-}
-
-/// [`splat_body`] compiled for AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[allow(clippy::too_many_arguments)]
-unsafe fn splat_avx2(
-    trig: &CellTrig,
-    src: &SourceHemisphere,
-    m: &Motion,
-    config: &EstimatorConfig,
-    rough: bool,
-    points: Points,
-    value: impl Fn(PatchId) -> PatchId,
-    ids: &mut Vec<PatchId>,
-    dist: Option<&mut Vec<f32>>,
-    z: &mut ZBuffer,
-    extras: &mut Vec<(u32, PatchId)>,
-) {
-    let isa = Isa::Avx2;
-    splat_body(
-        isa, trig, src, m, config, rough, points, value, ids, dist, z, extras,
-    )
+    // (Its own passes compiled for the CPU's widest set: the ring pass is chosen apart.)
+    with_isa!(Isa::detect(), |ISA| splat_body(
+        ISA, trig, src, m, config, rough, points, value, ids, dist, z, extras,
+    ))
 }
 
 #[inline(always)]
@@ -972,38 +871,19 @@ pub(crate) fn fill_holes(
     fill: HoleFill,
     source: impl Fn(usize) -> PatchId,
 ) -> (usize, f64) {
-    match Isa::detect() {
-        // SAFETY: the CPU has the instruction set.
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 => unsafe { fill_holes_avx512(hemi, ids, fill, source) },
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { fill_holes_avx2(hemi, ids, fill, source) },
-        _ => fill_holes_body(hemi, ids, fill, source),
-    }
+    fill_holes_with(Isa::detect(), hemi, ids, fill, source)
 }
 
-/// [`fill_holes_body`] compiled for AVX-512 (integer work only: the same answers).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
-unsafe fn fill_holes_avx512(
+/// [`fill_holes`] compiled for `isa` (integer work only: the same answers in every
+/// build).
+pub(crate) fn fill_holes_with(
+    isa: Isa,
     hemi: &Hemisphere,
     ids: &mut [PatchId],
     fill: HoleFill,
     source: impl Fn(usize) -> PatchId,
 ) -> (usize, f64) {
-    fill_holes_body(hemi, ids, fill, source)
-}
-
-/// [`fill_holes_body`] compiled for AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn fill_holes_avx2(
-    hemi: &Hemisphere,
-    ids: &mut [PatchId],
-    fill: HoleFill,
-    source: impl Fn(usize) -> PatchId,
-) -> (usize, f64) {
-    fill_holes_body(hemi, ids, fill, source)
+    with_isa!(isa, |ISA| fill_holes_body(hemi, ids, fill, source))
 }
 
 #[inline(always)]
@@ -1166,21 +1046,9 @@ impl<'h> Estimator<'h> {
         self.hemi
     }
 
-    /// Estimates H2 at patch `to` from `src`, the report's way (no rays).
+    /// Estimates H2 at patch `to` from `src`, the report's way (no rays), into `out`
+    /// (reusing its buffers).
     pub fn faithful(
-        &self,
-        scene: &Scene,
-        src: &SourceHemisphere,
-        to: PatchId,
-        config: &EstimatorConfig,
-    ) -> Estimate {
-        let mut out = Estimate::default();
-        self.faithful_into(scene, src, to, config, &mut out);
-        out
-    }
-
-    /// [`Estimator::faithful`] into `out`, reusing its buffers.
-    pub fn faithful_into(
         &self,
         scene: &Scene,
         src: &SourceHemisphere,
@@ -1188,10 +1056,10 @@ impl<'h> Estimator<'h> {
         config: &EstimatorConfig,
         out: &mut Estimate,
     ) {
-        let m = motion(scene, src.patch, to);
+        let m = motion(scene, src.patch(), to);
         let points = Points {
-            dist: &src.items.dist,
-            values: &src.items.patch,
+            dist: &src.items().dist,
+            values: &src.items().patch,
             cells: &[],
             extras: &[],
             ring_max: src.ring_max(self.hemi),
@@ -1220,7 +1088,7 @@ impl<'h> Estimator<'h> {
             Err(_) => splat_into(&mut ZBuffer::default()),
         });
         let (holes, hole_ff) = fill_holes(self.hemi, &mut out.items.patch, config.fill, |c| {
-            src.items.patch[c]
+            src.items().patch[c]
         });
         out.holes = holes;
         out.hole_ff = hole_ff;

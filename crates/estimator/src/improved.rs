@@ -4,9 +4,19 @@
 use crate::config::EstimatorConfig;
 use crate::faithful::{motion, splat, Estimator, Points, ZBuffer, HOLE};
 use crate::source::{SourceHemisphere, NO_POLYGON};
-use rad_core::{Hit, PatchId, PolygonId, RayCast};
+use rad_core::{Hit, PatchId, PolygonId};
 use rad_geometry::Scene;
-use rad_hemisphere::{ItemBuffer, NearestHits, BACK, ESCAPED};
+use rad_hemisphere::{Caster, ItemBuffer, NearestHits, BACK, ESCAPED};
+
+/// What became of an improved estimate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// Estimated from the source hemisphere.
+    Estimated,
+    /// Abandoned (it needed real rays for over `max_real_ray_share` of its cells), and
+    /// the patch's exact hemisphere cast instead.
+    CastExactly,
+}
 
 /// An estimated hemisphere from the improved mode.
 #[derive(Clone, Debug, Default)]
@@ -16,13 +26,9 @@ pub struct ImprovedEstimate {
     /// cell counts for the s × s cells it covers).
     pub holes: usize,
     /// Cells whose guessed polygons all missed (or whose nearest is a back face),
-    /// resolved by a real ray.
+    /// resolved by a real ray (or that would have needed one, when the estimate was
+    /// abandoned).
     pub real_rays: usize,
-    /// The estimate needed real rays for over `max_real_ray_share` of its cells and
-    /// stopped before casting them (`real_rays` counts the rays it would have needed):
-    /// `items` is empty from [`Estimator::improved`], and the patch's exact hemisphere
-    /// from [`Estimator::improved_or_cast`].
-    pub abandoned: bool,
     /// Ray–polygon tests made (without the real rays' own).
     pub tests: usize,
 }
@@ -56,24 +62,13 @@ thread_local! {
 }
 
 impl Estimator<'_> {
-    /// Estimates H2 at patch `to` from `src` by visibility estimation.
-    pub fn improved<C: RayCast>(
-        &self,
-        scene: &Scene,
-        caster: &C,
-        src: &SourceHemisphere,
-        to: PatchId,
-        config: &EstimatorConfig,
-        scratch: &mut C::Scratch,
-    ) -> ImprovedEstimate {
-        let mut out = ImprovedEstimate::default();
-        self.improved_into(scene, caster, src, to, config, scratch, &mut out);
-        out
-    }
-
-    /// [`Estimator::improved`] into `out`, reusing its buffers.
+    /// Estimates H2 at patch `to` from `src` by visibility estimation, into `out`
+    /// (reusing its buffers). An estimate that would need real rays for over
+    /// `config.max_real_ray_share` of its cells is abandoned before casting them, and
+    /// the patch's exact hemisphere is cast through `caster` instead (what the schedule
+    /// does, and what the mode costs): the outcome says which.
     #[allow(clippy::too_many_arguments)]
-    pub fn improved_into<C: RayCast>(
+    pub fn improved<C: Caster>(
         &self,
         scene: &Scene,
         caster: &C,
@@ -82,10 +77,10 @@ impl Estimator<'_> {
         config: &EstimatorConfig,
         scratch: &mut C::Scratch,
         out: &mut ImprovedEstimate,
-    ) {
+    ) -> Outcome {
         // (A fresh buffer if this thread's is in use: a caster that ran another estimate
-        // on this thread from inside `closest_hits_from`.)
-        WORK.with(|cell| match cell.try_borrow_mut() {
+        // on this thread from inside `closest_hits`.)
+        let outcome = WORK.with(|cell| match cell.try_borrow_mut() {
             Ok(mut work) => {
                 self.improved_with(scene, caster, src, to, config, scratch, &mut work, out)
             }
@@ -99,45 +94,15 @@ impl Estimator<'_> {
                 &mut Work::default(),
                 out,
             ),
-        })
-    }
-
-    /// [`Estimator::improved`], or, when that is abandoned, the patch's exact hemisphere
-    /// cast through `caster` (what the schedule does, and what the mode costs).
-    pub fn improved_or_cast<C: RayCast>(
-        &self,
-        scene: &Scene,
-        caster: &C,
-        src: &SourceHemisphere,
-        to: PatchId,
-        config: &EstimatorConfig,
-        scratch: &mut C::Scratch,
-    ) -> ImprovedEstimate {
-        let mut out = ImprovedEstimate::default();
-        self.improved_or_cast_into(scene, caster, src, to, config, scratch, &mut out);
-        out
-    }
-
-    /// [`Estimator::improved_or_cast`] into `out`, reusing its buffers.
-    #[allow(clippy::too_many_arguments)]
-    pub fn improved_or_cast_into<C: RayCast>(
-        &self,
-        scene: &Scene,
-        caster: &C,
-        src: &SourceHemisphere,
-        to: PatchId,
-        config: &EstimatorConfig,
-        scratch: &mut C::Scratch,
-        out: &mut ImprovedEstimate,
-    ) {
-        self.improved_into(scene, caster, src, to, config, scratch, out);
-        if out.abandoned {
-            self.hemi.cast(scene, caster, to, scratch, &mut out.items);
+        });
+        if outcome == Outcome::CastExactly {
+            caster.item_buffer(scene, self.hemi, to, scratch, &mut out.items);
         }
+        outcome
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn improved_with<C: RayCast>(
+    fn improved_with<C: Caster>(
         &self,
         scene: &Scene,
         caster: &C,
@@ -147,9 +112,9 @@ impl Estimator<'_> {
         scratch: &mut C::Scratch,
         w: &mut Work,
         out: &mut ImprovedEstimate,
-    ) {
+    ) -> Outcome {
         let hemi = self.hemi;
-        let m = motion(scene, src.patch, to);
+        let m = motion(scene, src.patch(), to);
         let target = &scene.patches()[to as usize];
         let own = target.polygon;
         let polygons = scene.polygons();
@@ -166,7 +131,7 @@ impl Estimator<'_> {
         let values = src.polygons(scene);
         let points = if stride == 1 {
             Points {
-                dist: &src.items.dist,
+                dist: &src.items().dist,
                 values,
                 cells: &[],
                 extras: &[],
@@ -259,7 +224,6 @@ impl Estimator<'_> {
             w.ring_runs.push(w.runs.len());
         }
         out.holes = holes * stride * stride;
-        out.abandoned = false;
         // 3. Resolve each cell with its own ray, against the polygons guessed for its
         // guess cell and that cell's 8 neighbours: polygon by polygon over spans of a
         // ring (vectorised, the voxel grid's arithmetic), each polygon tested on the
@@ -337,15 +301,12 @@ impl Estimator<'_> {
         });
         out.real_rays = real.len();
         if real.len() as f64 > config.max_real_ray_share * n_cells as f64 {
-            out.abandoned = true;
-            out.items.patch.clear();
-            out.items.dist.clear();
-            return;
+            return Outcome::CastExactly;
         }
         if !real.is_empty() {
             w.dirs.clear();
             w.dirs.extend(real.iter().map(|&c| hits.direction(c)));
-            caster.closest_hits_from(o, own, &w.dirs, scratch, &mut w.cast);
+            caster.closest_hits(scene, o, own, &w.dirs, scratch, &mut w.cast);
             for (&c, h) in real.iter().zip(&w.cast) {
                 (patch[c], dist[c]) = match h {
                     Some(h) if h.front => (polygons[h.polygon as usize].patch_at(h.u, h.v), h.t),
@@ -354,6 +315,7 @@ impl Estimator<'_> {
                 };
             }
         }
+        Outcome::Estimated
     }
 }
 

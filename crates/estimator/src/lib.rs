@@ -21,7 +21,7 @@ mod source;
 pub use config::{EstimatorConfig, HoleFill, Mode, Reprojection, ThresholdTest, MAX_GUESS_STRIDE};
 pub use driver::{estimate_rows, EstimateStats, EstimatedRow, Source};
 pub use faithful::{Estimate, Estimator};
-pub use improved::ImprovedEstimate;
+pub use improved::{ImprovedEstimate, Outcome};
 pub use reproject::{reproject_exact, reproject_first_order, Motion, Reprojected};
 pub use schedule::{windows, Window};
 pub use source::{SourceHemisphere, NO_POLYGON};

@@ -1,22 +1,25 @@
 //! The exact hemisphere H1 kept for estimation: what each cell sees, how far, and the
 //! boundary lists of §3.5.2.
 
-use rad_core::{PatchId, PolygonId, Ray, RayCast};
+use rad_core::{PatchId, PolygonId, Ray};
 use rad_geometry::Scene;
-use rad_hemisphere::{Hemisphere, ItemBuffer, BACK, ESCAPED};
+use rad_hemisphere::{Caster, Hemisphere, ItemBuffer, BACK, ESCAPED};
 
 /// An exact hemisphere with, where asked, boundary lists: a cell whose closest hit is a
 /// patch on its polygon's boundary keeps every further front-facing patch its ray
 /// crosses up to the scene's bound, with its distance.
 #[derive(Clone, Debug, Default)]
+///
+/// Its fields are private: the caches below are made from `items` on first use, so
+/// nothing may change it after it is cast.
 pub struct SourceHemisphere {
-    pub patch: PatchId,
+    patch: PatchId,
     /// What each cell sees (a patch, `ESCAPED` or `BACK`) and how far.
-    pub items: ItemBuffer,
+    items: ItemBuffer,
     /// CSR boundary lists: the extra entries of cell `c` are
     /// `list[list_start[c]..list_start[c + 1]]`; empty when lists are off.
-    pub list_start: Vec<u32>,
-    pub list: Vec<(PatchId, f32)>,
+    list_start: Vec<u32>,
+    list: Vec<(PatchId, f32)>,
     /// The polygon each cell sees (`NO_POLYGON` for escaped and back-facing rays), made
     /// on first use by the improved mode and shared by a window's estimates.
     polygons: std::sync::OnceLock<Vec<PolygonId>>,
@@ -46,8 +49,9 @@ pub(crate) struct CoarsePoints {
 pub const NO_POLYGON: PolygonId = PolygonId::MAX;
 
 impl SourceHemisphere {
-    /// Casts the exact hemisphere of `patch` (and its boundary lists if asked).
-    pub fn cast<C: RayCast>(
+    /// Casts the exact hemisphere of `patch` through `caster` (and its boundary lists
+    /// if asked: every caster casts their single rays, the scan by brute force).
+    pub fn cast<C: Caster>(
         scene: &Scene,
         caster: &C,
         hemi: &Hemisphere,
@@ -59,14 +63,14 @@ impl SourceHemisphere {
             patch,
             ..Default::default()
         };
-        hemi.cast(scene, caster, patch, scratch, &mut out.items);
+        caster.item_buffer(scene, hemi, patch, scratch, &mut out.items);
         if boundary_lists {
             out.add_boundary_lists(scene, caster, hemi, scratch);
         }
         out
     }
 
-    fn add_boundary_lists<C: RayCast>(
+    fn add_boundary_lists<C: Caster>(
         &mut self,
         scene: &Scene,
         caster: &C,
@@ -84,7 +88,7 @@ impl SourceHemisphere {
         for (c, &id) in self.items.patch.iter().enumerate() {
             if id != ESCAPED && id != BACK && scene.patches()[id as usize].on_boundary {
                 ray.dir = frame.world_from_local(hemi.directions()[c]);
-                caster.all_hits(&ray, scratch, &mut hits);
+                caster.all_hits_along(scene, &ray, scratch, &mut hits);
                 let first = self.items.dist[c];
                 for h in hits.iter().filter(|h| h.front && h.t > first) {
                     let q = scene.polygons()[h.polygon as usize].patch_at(h.u, h.v);
@@ -106,6 +110,16 @@ impl SourceHemisphere {
             coarse: self.coarse.clone(),
             ring_max: self.ring_max.clone(),
         }
+    }
+
+    /// The patch whose hemisphere this is.
+    pub fn patch(&self) -> PatchId {
+        self.patch
+    }
+
+    /// What each cell sees (a patch, `ESCAPED` or `BACK`) and how far.
+    pub fn items(&self) -> &ItemBuffer {
+        &self.items
     }
 
     /// Whether boundary lists were built.

@@ -366,26 +366,14 @@ impl Polygon {
             u.len() == out.len() && v.len() == out.len(),
             "one patch per (u, v)"
         );
-        match rad_core::Isa::detect() {
-            // SAFETY: the CPU has the instruction set.
-            #[cfg(target_arch = "x86_64")]
-            rad_core::Isa::Avx512 => unsafe { self.patches_at_avx512(u, v, out) },
-            #[cfg(target_arch = "x86_64")]
-            rad_core::Isa::Avx2 => unsafe { self.patches_at_avx2(u, v, out) },
-            _ => self.patches_at_body(u, v, out),
-        }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2")]
-    unsafe fn patches_at_avx512(&self, u: &[f32], v: &[f32], out: &mut [PatchId]) {
-        self.patches_at_body(u, v, out)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn patches_at_avx2(&self, u: &[f32], v: &[f32], out: &mut [PatchId]) {
-        self.patches_at_body(u, v, out)
+        rad_core::with_isa!(rad_core::Isa::detect(), |ISA| fn(
+            poly: &Polygon = self,
+            u: &[f32] = u,
+            v: &[f32] = v,
+            out: &mut [PatchId] = out,
+        ) {
+            poly.patches_at_body(u, v, out)
+        })
     }
 
     #[inline(always)]

@@ -10,7 +10,7 @@ use rad_geometry::Scene;
 use rad_hemisphere::{Hemisphere, HemisphereConfig, ItemBuffer, ScanScratch};
 use std::hint::black_box;
 
-/// The voxel grid of `rad_repro::default_grid` (rad-repro is not a dev-dependency here).
+/// The voxel grid of `rad_pipeline::default_grid` (rad-pipeline is not a dev-dependency here).
 const GRID: VoxelGridConfig = VoxelGridConfig::DEFAULT;
 
 fn spread(scene: &Scene, k: usize) -> Vec<u32> {

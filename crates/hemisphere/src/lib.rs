@@ -1,19 +1,23 @@
 //! Form factors from one patch's hemisphere (the report's §2): N_θ × N_φ cells with
-//! exact-integral delta form factors, one ray per cell through any [`rad_core::RayCast`],
-//! an item buffer, and sparse rows accumulated in f64. All rows of a scene are computed
-//! in parallel, deterministically whatever the thread count.
+//! exact-integral delta form factors, an item buffer, and sparse rows accumulated in
+//! f64. All rows of a scene are computed in parallel, deterministically whatever the
+//! thread count.
 //!
-//! [`Hemisphere::scan`] makes the same item buffers, to the bit, polygon by polygon over
-//! the cells each can cover instead of ray by ray through a grid (module `scan`).
+//! Item buffers come from a [`Caster`], the one interface every way of casting
+//! implements: any [`rad_core::RayCast`] (one ray a cell, [`Hemisphere::cast`]), or
+//! [`Scan`] ([`Hemisphere::scan`]: polygon by polygon over the cells each can cover).
+//! They all give the same item buffers, to the bit.
 
+mod caster;
 mod cells;
 mod lambert;
 mod row;
 mod scan;
 
+pub use caster::{Caster, Scan};
 pub use cells::{delta_form_factors, DeltaRule, Hemisphere, HemisphereConfig, MAX_CELLS};
 pub use lambert::point_to_polygon_form_factor;
-pub use row::{compute_rows, compute_rows_scan, ItemBuffer, Row, RowAccumulator, BACK, ESCAPED};
+pub use row::{compute_rows, ItemBuffer, Row, RowAccumulator, BACK, ESCAPED};
 pub use scan::{NearestHits, ScanScratch, ScanStats, NO_HIT};
 
 /// Errors from setting up a hemisphere.

@@ -1,6 +1,6 @@
 //! Item buffers (what each cell sees) and sparse form-factor rows.
 
-use crate::{Error, Hemisphere, ScanScratch};
+use crate::{Caster, Error, Hemisphere};
 use rad_core::{PatchId, RayCast};
 use rad_geometry::Scene;
 use rayon::prelude::*;
@@ -144,52 +144,16 @@ impl Hemisphere {
     }
 }
 
-/// Rows of `patches`, computed in parallel (rayon's current pool); `progress(n)` is
-/// called after each row with the number of rows done so far. The result does not
-/// depend on the number of threads.
-pub fn compute_rows<C: RayCast>(
+/// Rows of `patches`, computed in parallel (rayon's current pool) from the item
+/// buffers `caster` makes; `progress(n)` is called after each row with the number of
+/// rows done so far. The result does not depend on the number of threads, nor on the
+/// caster (they all give the same item buffers, to the bit).
+pub fn compute_rows<C: Caster>(
     scene: &Scene,
     caster: &C,
     hemisphere: &Hemisphere,
     patches: &[PatchId],
     progress: &(dyn Fn(usize) + Sync),
-) -> Result<Vec<Row>, Error> {
-    rows_with(
-        scene,
-        hemisphere,
-        patches,
-        progress,
-        || caster.new_scratch(),
-        |scratch, p, buf| hemisphere.cast(scene, caster, p, scratch, buf),
-    )
-}
-
-/// [`compute_rows`] with item buffers from [`Hemisphere::scan`]: the same rows, to the
-/// bit, as through the voxel grid, in a fraction of the time.
-pub fn compute_rows_scan(
-    scene: &Scene,
-    hemisphere: &Hemisphere,
-    patches: &[PatchId],
-    progress: &(dyn Fn(usize) + Sync),
-) -> Result<Vec<Row>, Error> {
-    rows_with(
-        scene,
-        hemisphere,
-        patches,
-        progress,
-        ScanScratch::default,
-        |scratch, p, buf| hemisphere.scan(scene, p, scratch, buf),
-    )
-}
-
-/// Rows in parallel, each from the item buffer `fill` makes with per-thread `S`.
-fn rows_with<S: Send>(
-    scene: &Scene,
-    hemisphere: &Hemisphere,
-    patches: &[PatchId],
-    progress: &(dyn Fn(usize) + Sync),
-    new_scratch: impl Fn() -> S + Sync + Send,
-    fill: impl Fn(&mut S, PatchId, &mut ItemBuffer) + Sync + Send,
 ) -> Result<Vec<Row>, Error> {
     let n_patches = scene.patches().len();
     if let Some(&bad) = patches.iter().find(|&&p| p as usize >= n_patches) {
@@ -204,13 +168,13 @@ fn rows_with<S: Send>(
         .map_init(
             || {
                 (
-                    new_scratch(),
+                    caster.scratch(),
                     ItemBuffer::default(),
                     RowAccumulator::new(n_patches),
                 )
             },
             |(scratch, buf, acc), &p| {
-                fill(scratch, p, buf);
+                caster.item_buffer(scene, hemisphere, p, scratch, buf);
                 let row = hemisphere.row_from_items(p, buf, acc);
                 progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
                 row

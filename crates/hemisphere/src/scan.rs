@@ -18,7 +18,7 @@
 use crate::row::{BACK, ESCAPED};
 use crate::{Hemisphere, ItemBuffer};
 use glam::{DVec3, Vec3};
-use rad_core::{PatchId, PolygonId};
+use rad_core::{with_isa, Isa, PatchId, PolygonId};
 use rad_geometry::{Polygon, Scene};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::ops::Range;
@@ -60,6 +60,8 @@ pub struct NearestHits {
 #[derive(Clone, Debug, Default)]
 pub struct ScanScratch {
     hits: NearestHits,
+    /// For single rays ([`crate::Caster::closest_hits`]).
+    pub(crate) rays: NearestHits,
     /// Work counts so far.
     pub stats: ScanStats,
 }
@@ -281,6 +283,35 @@ impl NearestHits {
         }
     }
 
+    /// Starts a set of rays with directions `dirs` (cell k is ray k), no hits yet.
+    pub fn begin_rays(&mut self, dirs: &[Vec3]) {
+        self.dirs_for = None;
+        let n = dirs.len();
+        for v in [&mut self.dx, &mut self.dy, &mut self.dz] {
+            v.clear();
+        }
+        self.dx.extend(dirs.iter().map(|d| d.x));
+        self.dy.extend(dirs.iter().map(|d| d.y));
+        self.dz.extend(dirs.iter().map(|d| d.z));
+        self.best_t.clear();
+        self.best_t.resize(n, f32::INFINITY);
+        self.best_p.clear();
+        self.best_p.resize(n, NO_HIT);
+        self.best_u.resize(n, 0.0);
+        self.best_v.resize(n, 0.0);
+    }
+
+    /// Cell `c`'s nearest hit so far: (polygon or [`NO_HIT`], t, u, v).
+    #[inline]
+    pub fn nearest(&self, c: usize) -> (PolygonId, f32, f32, f32) {
+        (
+            self.best_p[c],
+            self.best_t[c],
+            self.best_u[c],
+            self.best_v[c],
+        )
+    }
+
     /// The world direction of cell `c`'s ray (as [`rad_core::Frame::world_from_local`]
     /// gives it).
     #[inline]
@@ -319,30 +350,11 @@ impl Hemisphere {
         let n_phi = self.n_phi();
         for ring in 0..self.n_theta() {
             let cells = ring * n_phi..(ring + 1) * n_phi;
-            let forward = match rad_core::Isa::detect() {
-                // SAFETY: the CPU has the instruction set.
-                #[cfg(target_arch = "x86_64")]
-                rad_core::Isa::Avx512 => unsafe { world_dirs_avx512(poly, s, cells) },
-                #[cfg(target_arch = "x86_64")]
-                rad_core::Isa::Avx2 => unsafe { world_dirs_avx2(poly, s, cells) },
-                _ => world_dirs(poly, s, cells),
-            };
+            let forward = with_isa!(Isa::detect(), |ISA| world_dirs(poly, s, cells));
             s.forward.push(forward);
         }
         s.dirs_for = Some(key);
     }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn world_dirs_avx2(poly: &Polygon, s: &mut NearestHits, cells: Range<usize>) -> bool {
-    world_dirs(poly, s, cells)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2")]
-unsafe fn world_dirs_avx512(poly: &Polygon, s: &mut NearestHits, cells: Range<usize>) -> bool {
-    world_dirs(poly, s, cells)
 }
 
 /// `Frame::world_from_local` of the cells' directions, component by component (the
@@ -393,17 +405,24 @@ fn test_span(poly: &Polygon, h: &Terms, s: &mut NearestHits, a: usize, b: usize)
     let (bu, bv) = (&mut s.best_u[a..b], &mut s.best_v[a..b]);
     s.mask.resize(b - a, 0);
     let mask = &mut s.mask[..b - a];
-    match rad_core::Isa::detect() {
-        // SAFETY: the CPU has the instruction set.
-        #[cfg(target_arch = "x86_64")]
-        rad_core::Isa::Avx512 => unsafe {
-            span_avx512(h, simple, dx, dy, dz, bt, bp, bu, bv, mask)
-        },
-        #[cfg(target_arch = "x86_64")]
-        rad_core::Isa::Avx2 => unsafe { span_avx2(h, simple, dx, dy, dz, bt, bp, bu, bv, mask) },
-        _ if simple => span::<true>(h, dx, dy, dz, bt, bp, bu, bv, mask),
-        _ => span::<false>(h, dx, dy, dz, bt, bp, bu, bv, mask),
-    }
+    with_isa!(Isa::detect(), |ISA| fn(
+        h: &Terms = h,
+        simple: bool = simple,
+        dx: &[f32] = dx,
+        dy: &[f32] = dy,
+        dz: &[f32] = dz,
+        bt: &mut [f32] = bt,
+        bp: &mut [u32] = bp,
+        bu: &mut [f32] = bu,
+        bv: &mut [f32] = bv,
+        mask: &mut [u8] = mask,
+    ) {
+        if simple {
+            span::<true>(h, dx, dy, dz, bt, bp, bu, bv, mask)
+        } else {
+            span::<false>(h, dx, dy, dz, bt, bp, bu, bv, mask)
+        }
+    });
     if simple || !mask.contains(&1) {
         return;
     }
@@ -424,50 +443,6 @@ fn test_span(poly: &Polygon, h: &Terms, s: &mut NearestHits, a: usize, b: usize)
         if inside {
             (bt[k], bp[k], bu[k], bv[k]) = (t, h.id, u, v);
         }
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2")]
-#[allow(clippy::too_many_arguments)]
-unsafe fn span_avx512(
-    h: &Terms,
-    simple: bool,
-    dx: &[f32],
-    dy: &[f32],
-    dz: &[f32],
-    bt: &mut [f32],
-    bp: &mut [u32],
-    bu: &mut [f32],
-    bv: &mut [f32],
-    mask: &mut [u8],
-) {
-    if simple {
-        span::<true>(h, dx, dy, dz, bt, bp, bu, bv, mask)
-    } else {
-        span::<false>(h, dx, dy, dz, bt, bp, bu, bv, mask)
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[allow(clippy::too_many_arguments)]
-unsafe fn span_avx2(
-    h: &Terms,
-    simple: bool,
-    dx: &[f32],
-    dy: &[f32],
-    dz: &[f32],
-    bt: &mut [f32],
-    bp: &mut [u32],
-    bu: &mut [f32],
-    bv: &mut [f32],
-    mask: &mut [u8],
-) {
-    if simple {
-        span::<true>(h, dx, dy, dz, bt, bp, bu, bv, mask)
-    } else {
-        span::<false>(h, dx, dy, dz, bt, bp, bu, bv, mask)
     }
 }
 

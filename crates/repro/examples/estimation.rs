@@ -13,7 +13,7 @@ use rad_repro::estimation::{scene_estimation, settings, Setting};
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let scene_name = args.get(1).map_or("cube", String::as_str);
-    let (nt, np) = rad_repro::parse_resolution(args.get(2).map_or("180x720", String::as_str))
+    let (nt, np) = rad_pipeline::parse_resolution(args.get(2).map_or("180x720", String::as_str))
         .expect("resolution");
     let quick = args.get(3).is_some_and(|a| a == "quick");
     let (scene, polys): (Scene, Option<Vec<u32>>) = match scene_name {
@@ -38,7 +38,7 @@ fn main() {
                 list.split(',')
                     .map(|item| {
                         let (stride, share) = item.split_once(':').expect("stride:share");
-                        let mut config = rad_repro::default_estimator(Mode::Improved);
+                        let mut config = rad_pipeline::default_estimator(Mode::Improved);
                         config.guess_stride = stride.parse().expect("a stride");
                         config.max_real_ray_share = share.parse().expect("a share");
                         Setting {

@@ -3,7 +3,7 @@
 
 use crate::closed_form::{parallel_rectangles, perpendicular_rectangles};
 use crate::stats::Summary;
-use crate::{default_grid, Error};
+use crate::Error;
 use glam::DVec3;
 use rad_accel::VoxelGrid;
 use rad_geometry::scenes::{cube, CUBE_FACES};
@@ -11,6 +11,7 @@ use rad_geometry::Scene;
 use rad_hemisphere::{
     compute_rows, point_to_polygon_form_factor, DeltaRule, Hemisphere, HemisphereConfig, Row,
 };
+use rad_pipeline::default_grid;
 use serde::Serialize;
 use std::time::Instant;
 

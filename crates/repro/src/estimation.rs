@@ -3,15 +3,16 @@
 
 use crate::accuracy::lambert;
 use crate::stats::Summary;
-use crate::{default_grid, Error};
+use crate::Error;
 use rad_accel::VoxelGrid;
 use rad_core::{PatchId, RayCast};
 use rad_estimator::{
-    windows, Estimator, EstimatorConfig, HoleFill, Mode, Reprojection, SourceHemisphere,
-    ThresholdTest, Window,
+    windows, Estimate, Estimator, EstimatorConfig, HoleFill, ImprovedEstimate, Mode, Outcome,
+    Reprojection, SourceHemisphere, ThresholdTest, Window,
 };
 use rad_geometry::Scene;
 use rad_hemisphere::{Hemisphere, HemisphereConfig, ItemBuffer, Row, RowAccumulator, ScanScratch};
+use rad_pipeline::default_grid;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
@@ -71,7 +72,7 @@ pub fn settings(quick: bool) -> Vec<Setting> {
                 });
             }
         }
-        let default_stride = crate::default_estimator(Mode::Improved).guess_stride;
+        let default_stride = rad_pipeline::default_estimator(Mode::Improved).guess_stride;
         for (share, stride) in [(0.02, 1), (0.05, 1), (0.10, 1), (0.05, 2), (0.05, 3)] {
             // Quick, and with lists: the default setting only.
             if (quick || bl) && (share != 0.05 || stride != default_stride) {
@@ -173,8 +174,8 @@ pub fn timing(
         .filter(|w| !w.estimated.is_empty())
         .collect();
     let pool = crate::one_thread()?;
-    let faithful = crate::default_estimator(Mode::Faithful);
-    let improved = crate::default_estimator(Mode::Improved);
+    let faithful = rad_pipeline::default_estimator(Mode::Faithful);
+    let improved = rad_pipeline::default_estimator(Mode::Improved);
     Ok(pool.install(|| {
         let mut s = grid.new_scratch();
         let mut buf = ItemBuffer::default();
@@ -193,12 +194,12 @@ pub fn timing(
                 hemi.scan(scene, p, &mut ss, &mut buf);
                 ts.push(t.elapsed().as_secs_f64());
                 let t = Instant::now();
-                est.faithful_into(scene, &src, p, &faithful, &mut fe);
+                est.faithful(scene, &src, p, &faithful, &mut fe);
                 std::hint::black_box(&fe);
                 tf.push(t.elapsed().as_secs_f64());
                 // An abandoned estimate costs its exact cast too, as in the schedule.
                 let t = Instant::now();
-                est.improved_or_cast_into(scene, &grid, &src, p, &improved, &mut s, &mut ie);
+                est.improved(scene, &grid, &src, p, &improved, &mut s, &mut ie);
                 real += std::hint::black_box(&ie).real_rays;
                 ti.push(t.elapsed().as_secs_f64());
             }
@@ -411,12 +412,15 @@ pub fn scene_estimation(
                     };
                     let (items, holes, real, fallback) = match cfg.mode {
                         Mode::Faithful => {
-                            let e = est.faithful(scene, src, p, cfg);
+                            let mut e = Estimate::default();
+                            est.faithful(scene, src, p, cfg, &mut e);
                             (e.items, e.holes, 0, false)
                         }
                         Mode::Improved => {
-                            let e = est.improved(scene, &grid, src, p, cfg, s);
-                            (e.items, e.holes, e.real_rays, e.abandoned)
+                            let mut e = ImprovedEstimate::default();
+                            let outcome = est.improved(scene, &grid, src, p, cfg, s, &mut e);
+                            let cast = outcome == Outcome::CastExactly;
+                            (e.items, e.holes, e.real_rays, cast)
                         }
                     };
                     let row = if fallback {

@@ -3,14 +3,13 @@
 
 use crate::reciprocity::{pairs, point_asymmetry, summarise, Reciprocity};
 use crate::stats::Summary;
-use crate::{default_grid, Error};
+use crate::Error;
 use rad_accel::{BruteForce, VoxelGrid};
 use rad_core::RayCast;
 use rad_geometry::scenes::loft;
 use rad_geometry::Scene;
-use rad_hemisphere::{
-    compute_rows, compute_rows_scan, Hemisphere, HemisphereConfig, ItemBuffer, ScanScratch,
-};
+use rad_hemisphere::{compute_rows, Hemisphere, HemisphereConfig, ItemBuffer, Scan, ScanScratch};
+use rad_pipeline::default_grid;
 use serde::Serialize;
 use std::time::Instant;
 
@@ -125,7 +124,7 @@ pub fn loft_checks(
         .map(|p| p as u32)
         .collect();
     // (by scan: the grid's rows to the bit, faster)
-    let rows = compute_rows_scan(&scene, &hemi, &subset, &|_| {})?;
+    let rows = compute_rows(&scene, &Scan, &hemi, &subset, &|_| {})?;
     let reciprocity = summarise(
         &pairs(&scene, &rows, hemi.n_cells()),
         rows.len(),

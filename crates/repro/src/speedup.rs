@@ -2,14 +2,15 @@
 //! without estimation and their relative difference), and the radiosity solutions of
 //! the cube and the Cornell box with their energy balance.
 
-use crate::radiosity::{mean_row_l1, solve, surfaces, SolveOptions, Solved, SolverJson};
-use crate::{default_estimator, default_grid, Error};
+use crate::Error;
 use rad_accel::VoxelGrid;
 use rad_core::PatchId;
-use rad_estimator::{estimate_rows, windows, EstimateStats, Mode};
+use rad_estimator::{windows, Mode};
 use rad_geometry::scenes::{cornell_box, cube, loft, CORNELL_PATCH_MM};
 use rad_geometry::Scene;
-use rad_hemisphere::{compute_rows, compute_rows_scan, Hemisphere, HemisphereConfig, Row};
+use rad_hemisphere::{compute_rows, Hemisphere, HemisphereConfig, Row, Scan};
+use rad_pipeline::solve::{solve, surfaces, SolveOptions, Solved, SolverJson};
+use rad_pipeline::{default_grid, CasterKind, RowMethod};
 use rad_render::{relative_difference, render, DiffStats, Image, RenderConfig, Shading, View};
 use rad_solver::{FormFactors, SolveConfig, Solver};
 use serde::Serialize;
@@ -63,7 +64,9 @@ impl SpeedupConfig {
 /// One way of computing all the rows asked for, timed.
 #[derive(Clone, Debug, Serialize)]
 pub struct MethodRun {
+    /// [`RowMethod::name`].
     pub method: String,
+    pub exact: bool,
     pub hemispheres: usize,
     /// Wall time of the rows, all threads.
     pub seconds: f64,
@@ -73,8 +76,9 @@ pub struct MethodRun {
     pub speedup_vs_exact: f64,
     /// Exact (scan) time over this method's time, same run.
     pub speedup_vs_scan: Option<f64>,
-    /// The scan's run: its rows equal the grid's, bit for bit (compared by hash).
-    pub identical_to_exact: Option<bool>,
+    /// A run through the scan: its rows equal the same method's through the grid, bit
+    /// for bit (compared by hash).
+    pub identical_to_grid: Option<bool>,
     pub exact_hemispheres: usize,
     pub estimated_hemispheres: usize,
     pub fallback_exact: usize,
@@ -152,7 +156,7 @@ pub struct LoftSpeedup {
     pub windows: usize,
     pub threads: usize,
     pub default_mode: &'static str,
-    /// All patches: exact, then faithful, then improved, one after the other.
+    /// All patches: each method of Table 1, one after the other.
     pub all: Vec<MethodRun>,
     /// The report-like subset: whole windows, every k-th.
     pub subset: Vec<MethodRun>,
@@ -188,11 +192,11 @@ pub struct Radiosity {
     pub images: Vec<(String, Image, bool)>,
 }
 
-fn mode_name(m: Mode) -> &'static str {
-    match m {
-        Mode::Faithful => "faithful",
-        Mode::Improved => "improved",
-    }
+/// `Σ_i Σ_j |a_ij − b_ij|` over rows `rows`, divided by their number: the mean L1
+/// distance of two matrices' rows.
+pub fn mean_row_l1(a: &FormFactors, b: &FormFactors, rows: &[PatchId]) -> f64 {
+    let total: f64 = rows.iter().map(|&i| a.row_l1_distance(b, i)).sum();
+    total / rows.len().max(1) as f64
 }
 
 fn rows_to_matrix(n: usize, rows: &[Row]) -> Result<FormFactors, Error> {
@@ -202,34 +206,34 @@ fn rows_to_matrix(n: usize, rows: &[Row]) -> Result<FormFactors, Error> {
     )?)
 }
 
-/// A way of computing rows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Way {
-    /// Every hemisphere ray cast through the voxel grid (the report's "without
-    /// estimation").
-    Grid,
-    /// The same exact item buffers by polygon scan.
-    Scan,
-    /// The 3 x 3 schedule with an estimator mode.
-    Estimated(Mode),
-}
-
-impl Way {
-    const ALL: [Way; 4] = [
-        Way::Grid,
-        Way::Scan,
-        Way::Estimated(Mode::Faithful),
-        Way::Estimated(Mode::Improved),
-    ];
-
-    fn name(self) -> String {
-        match self {
-            Way::Grid => "exact".into(),
-            Way::Scan => "exact (scan)".into(),
-            Way::Estimated(m) => format!("estimated ({})", mode_name(m)),
-        }
-    }
-}
+/// Table 1's methods, in the order they run: exact through the grid (the report's
+/// "without estimation") and by scan, the report's schedule with each estimator mode
+/// with centres through the grid (the report's "with estimation"), then with centres
+/// (and fallbacks and real rays) through the scan, our fastest caster.
+const TABLE_1: [RowMethod; 6] = [
+    RowMethod::Exact {
+        caster: CasterKind::Grid,
+    },
+    RowMethod::Exact {
+        caster: CasterKind::Scan,
+    },
+    RowMethod::Estimated {
+        mode: Mode::Faithful,
+        centres: CasterKind::Grid,
+    },
+    RowMethod::Estimated {
+        mode: Mode::Improved,
+        centres: CasterKind::Grid,
+    },
+    RowMethod::Estimated {
+        mode: Mode::Faithful,
+        centres: CasterKind::Scan,
+    },
+    RowMethod::Estimated {
+        mode: Mode::Improved,
+        centres: CasterKind::Scan,
+    },
+];
 
 /// A hash of a row's every bit, to compare two runs' rows without keeping both.
 fn row_hash(r: &Row) -> u64 {
@@ -243,51 +247,35 @@ fn row_hash(r: &Row) -> u64 {
     h.finish()
 }
 
-/// Rows of `patches` by one way, timed.
+/// Rows of `patches` by one method, timed.
 fn run_method(
     scene: &Scene,
-    grid: &VoxelGrid,
     hemi: &Hemisphere,
-    way: Way,
+    method: RowMethod,
     patches: &[PatchId],
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<(Vec<Row>, MethodRun), Error> {
     let t = Instant::now();
-    let (rows, stats) = match way {
-        Way::Grid | Way::Scan => {
-            let rows = if way == Way::Grid {
-                compute_rows(scene, grid, hemi, patches, progress)?
-            } else {
-                compute_rows_scan(scene, hemi, patches, progress)?
-            };
-            let stats = EstimateStats {
-                exact: rows.len(),
-                ..EstimateStats::default()
-            };
-            (rows, stats)
-        }
-        Way::Estimated(m) => {
-            let (rows, stats) =
-                estimate_rows(scene, grid, hemi, &default_estimator(m), patches, progress)?;
-            (rows.into_iter().map(|r| r.row).collect(), stats)
-        }
-    };
+    let made = rad_pipeline::rows(scene, hemi, method, patches, progress)?;
+    let (rows, stats) = (made.rows, made.stats);
     let seconds = t.elapsed().as_secs_f64();
     let per = |s: f64, n: usize| if n > 0 { 1e3 * s / n as f64 } else { 0.0 };
-    let exact_ms = match way {
+    let exact_ms = if method.is_exact() {
         // Thread-time of an exact hemisphere: wall time times threads over count.
-        Way::Grid | Way::Scan => per(seconds * rayon::current_num_threads() as f64, stats.exact),
-        Way::Estimated(_) => per(stats.exact_seconds, stats.exact),
+        per(seconds * rayon::current_num_threads() as f64, stats.exact)
+    } else {
+        per(stats.exact_seconds, stats.exact)
     };
     let estimated = stats.estimated + stats.fallback_exact;
     let run = MethodRun {
-        method: way.name(),
+        method: method.name(),
+        exact: method.is_exact(),
         hemispheres: rows.len(),
         seconds,
         ms_per_hemisphere: per(seconds, rows.len()),
         speedup_vs_exact: 1.0,
         speedup_vs_scan: None,
-        identical_to_exact: None,
+        identical_to_grid: None,
         exact_hemispheres: stats.exact,
         estimated_hemispheres: stats.estimated,
         fallback_exact: stats.fallback_exact,
@@ -304,14 +292,16 @@ fn run_method(
     Ok((rows, run))
 }
 
-/// Every way's run, and the matrices of the grid's rows and each estimator mode's.
-type Runs = (Vec<MethodRun>, Vec<(Way, FormFactors)>);
+/// Every method's run, and the matrices of the rows through the grid (exact, and each
+/// estimator mode's).
+type Runs = (Vec<MethodRun>, Vec<(RowMethod, FormFactors)>);
 
-/// Runs every [`Way`] on `patches`, in this order, in this process; the matrices of
-/// the exact (grid) rows and of each estimator mode's come back (on all patches).
+/// Runs every method of [`TABLE_1`] on `patches`, in this order, in this process; the
+/// rows through the scan are compared with the same method's through the grid (by
+/// hash: they must be equal, bit for bit); the matrices of the grid's runs come back
+/// (on all patches).
 fn all_methods(
     scene: &Scene,
-    grid: &VoxelGrid,
     hemi: &Hemisphere,
     patches: &[PatchId],
     estimated_ids: &[PatchId],
@@ -322,11 +312,11 @@ fn all_methods(
     let full = patches.len() == n;
     let mut runs: Vec<MethodRun> = Vec::new();
     let mut matrices = Vec::new();
-    let mut exact_hashes = Vec::new();
-    for way in Way::ALL {
-        let label = format!("{stage}, {}", way.name());
+    let mut grid_hashes: Vec<(&'static str, Vec<u64>)> = Vec::new();
+    for method in TABLE_1 {
+        let label = format!("{stage}, {method}");
         let total = patches.len();
-        let (rows, mut run) = run_method(scene, grid, hemi, way, patches, &|k| {
+        let (rows, mut run) = run_method(scene, hemi, method, patches, &|k| {
             if k % 500 == 0 || k == total {
                 progress(&label, k, total)
             }
@@ -337,22 +327,26 @@ fn all_methods(
         if let Some(scan) = runs.get(1) {
             run.speedup_vs_scan = Some(scan.seconds / run.seconds);
         }
-        match way {
-            Way::Grid => exact_hashes = rows.iter().map(row_hash).collect(),
-            Way::Scan => {
-                run.identical_to_exact =
-                    Some(rows.iter().map(row_hash).eq(exact_hashes.iter().copied()));
-                run.speedup_vs_scan = Some(1.0);
+        let hashes: Vec<u64> = rows.iter().map(row_hash).collect();
+        match method.caster() {
+            CasterKind::Grid => grid_hashes.push((method.rows_name(), hashes)),
+            CasterKind::Scan => {
+                run.identical_to_grid = grid_hashes
+                    .iter()
+                    .find(|(name, _)| *name == method.rows_name())
+                    .map(|(_, h)| *h == hashes);
             }
-            Way::Estimated(_) => {}
         }
-        if full && way != Way::Scan {
+        if method == TABLE_1[1] {
+            run.speedup_vs_scan = Some(1.0);
+        }
+        if full && method.caster() == CasterKind::Grid {
             let m = rows_to_matrix(n, &rows)?;
             drop(rows);
             if let Some((_, exact)) = matrices.first() {
                 run.mean_row_l1_vs_exact = Some(mean_row_l1(exact, &m, estimated_ids));
             }
-            matrices.push((way, m));
+            matrices.push((method, m));
         }
         runs.push(run);
     }
@@ -379,7 +373,6 @@ pub fn run(
 
     let (runs_all, matrices) = all_methods(
         &scene,
-        &grid,
         &hemi,
         &all,
         &estimated_ids,
@@ -396,15 +389,7 @@ pub fn run(
         .step_by(stride)
         .flat_map(|w| std::iter::once(w.centre).chain(w.estimated.iter().copied()))
         .collect();
-    let (runs_subset, _) = all_methods(
-        &scene,
-        &grid,
-        &hemi,
-        &subset,
-        &[],
-        "Table 1, subset",
-        progress,
-    )?;
+    let (runs_subset, _) = all_methods(&scene, &hemi, &subset, &[], "Table 1, subset", progress)?;
 
     // Solve and render each.
     let s = surfaces(&scene);
@@ -424,9 +409,9 @@ pub fn run(
     let mut solves = Vec::new();
     let mut images = Vec::new();
     let mut exact_image: Option<Image> = None;
-    for (k, (way, m)) in matrices.iter().enumerate() {
+    for (k, (method, m)) in matrices.iter().enumerate() {
         progress(
-            &format!("solve and render the loft, {}", way.name()),
+            &format!("solve and render the loft, {method}"),
             k + 1,
             matrices.len(),
         );
@@ -435,10 +420,7 @@ pub fn run(
         let img = render(&scene, &grid, &view, &solved.solution.display(&s), &rcfg)?;
         let render_seconds = t.elapsed().as_secs_f64();
         let mut image_difference = None;
-        let mode = match way {
-            Way::Estimated(m) => Some(*m),
-            _ => None,
-        };
+        let mode = method.mode();
         match &exact_image {
             None => {
                 images.push(("loft_exact".to_string(), img.clone(), true));
@@ -447,7 +429,7 @@ pub fn run(
             Some(exact) => {
                 let (diff, stats) = relative_difference(exact, &img)?;
                 image_difference = Some(stats.into());
-                let name = mode_name(mode.expect("estimated"));
+                let name = mode.expect("estimated").name();
                 let (stem, diff_stem) = if mode == Some(DEFAULT_MODE) {
                     ("loft_estimated".to_string(), "loft_reldiff".to_string())
                 } else {
@@ -461,7 +443,7 @@ pub fn run(
             }
         }
         solves.push(SolveRun {
-            method: way.name(),
+            method: method.name(),
             solver: SolverJson::new(&solved, &opts),
             scaling_seconds: solved.scaling_seconds,
             solve_seconds: solved.solve_seconds,
@@ -512,7 +494,7 @@ pub fn run(
             patches: n,
             windows: wins.len(),
             threads: rayon::current_num_threads(),
-            default_mode: mode_name(DEFAULT_MODE),
+            default_mode: DEFAULT_MODE.name(),
             all: runs_all,
             subset: runs_subset,
             subset_window_stride: stride,
@@ -554,7 +536,7 @@ fn scene_solves_with_b(
     let t = Instant::now();
     // Exact rows by polygon scan: the grid's rows to the bit (checked on the loft in
     // Table 1), in a fraction of the time.
-    let rows = compute_rows_scan(scene, &hemi, &all, &|_| {})?;
+    let rows = compute_rows(scene, &Scan, &hemi, &all, &|_| {})?;
     let form_factor_seconds = t.elapsed().as_secs_f64();
     let ff = rows_to_matrix(n, &rows)?;
     drop(rows);

@@ -294,23 +294,36 @@ fn solve_then_render_the_cornell_box() {
     let png_bytes = std::fs::read(&png).unwrap();
     assert_eq!(&png_bytes[1..4], b"PNG");
 
-    // Another scene's solution is refused, and nothing is written.
+    bad_renders_and_solves(&dir, &s, &sol);
+}
+
+/// What `render` and `solve` refuse, given the Cornell box `s` and its solution `sol`.
+fn bad_renders_and_solves(dir: &tempfile::TempDir, s: &str, sol: &Path) {
     let other = dir.path().join("other.exr");
-    let out = coherad(&[
-        "render",
-        &bench_scene("cube.json").display().to_string(),
-        "--solution",
-        sol.to_str().unwrap(),
-        "--out",
-        other.to_str().unwrap(),
-    ]);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("radiosities for a scene of 600 patches"),
-        "{err}"
-    );
-    assert!(!other.exists());
+    // Another scene's solution is refused, and nothing is written: the cube, and the
+    // same Cornell box but for its description (the same patches).
+    let copy = dir.path().join("cornell-copy.json");
+    let text = std::fs::read_to_string(s).unwrap();
+    std::fs::write(
+        &copy,
+        text.replacen("\"description\": \"", "\"description\": \"A copy: ", 1),
+    )
+    .unwrap();
+    for scene in [bench_scene("cube.json"), copy] {
+        let out = coherad(&[
+            "render",
+            &scene.display().to_string(),
+            "--solution",
+            sol.to_str().unwrap(),
+            "--out",
+            other.to_str().unwrap(),
+        ]);
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("made for another scene"), "{err}");
+        assert!(!other.exists());
+    }
+    let s = &s.to_string();
     // A missing solution file names itself.
     let out = coherad(&[
         "render",
@@ -383,4 +396,76 @@ fn solve_then_render_the_cornell_box() {
         "{err}"
     );
     assert!(!other.exists());
+}
+
+/// FNV-1a (64 bits) of `bytes`.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// `coherad formfactors` writes the same bytes as it did before the caster interface
+/// and the pipeline crate (hashes stored from the binary at 4538061), for exact rows
+/// through both casters and estimated rows in both modes with centres through both.
+#[test]
+fn form_factor_files_keep_their_stored_hashes() {
+    let cases = [
+        ("cube.json", "all", "exact", 0xfdd8_c8ad_704d_ab3a_u64),
+        (
+            "cube.json",
+            "all",
+            "estimated/faithful",
+            0x600c_2885_d23d_6ff8,
+        ),
+        (
+            "cube.json",
+            "all",
+            "estimated/improved",
+            0x026d_9ad2_3ba8_957e,
+        ),
+        ("loft.json", "0-1499", "exact", 0x66d9_41ed_9b38_3e19),
+        (
+            "loft.json",
+            "0-1499",
+            "estimated/faithful",
+            0x187f_4383_f8c9_b192,
+        ),
+        (
+            "loft.json",
+            "0-1499",
+            "estimated/improved",
+            0x5af7_5c35_3b76_f686,
+        ),
+    ];
+    for (scene, patches, method, want) in cases {
+        let scene = bench_scene(scene);
+        for caster in ["scan", "grid"] {
+            let mut args = vec![
+                "formfactors",
+                scene.to_str().unwrap(),
+                "--resolution",
+                "45x180",
+                "--patches",
+                patches,
+                "--caster",
+                caster,
+            ];
+            if let Some(mode) = method.strip_prefix("estimated/") {
+                args.extend(["--method", "estimated", "--estimator", mode]);
+            }
+            let out = coherad(&args);
+            assert!(
+                out.status.success(),
+                "{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            assert_eq!(
+                fnv1a(&out.stdout),
+                want,
+                "{} {patches} {method} through the {caster}",
+                scene.display()
+            );
+        }
+    }
 }

@@ -354,16 +354,7 @@ fn hole_filling_is_the_same_in_every_build() {
             assert!(!base.contains(&HOLE), "case {case}: a hole left");
             for isa in Isa::available() {
                 let mut got = ids.clone();
-                // SAFETY: `available` lists only sets this CPU has.
-                let holes = match isa {
-                    #[cfg(target_arch = "x86_64")]
-                    Isa::Avx512 => unsafe {
-                        super::fill_holes_avx512(&hemi, &mut got, fill, source)
-                    },
-                    #[cfg(target_arch = "x86_64")]
-                    Isa::Avx2 => unsafe { super::fill_holes_avx2(&hemi, &mut got, fill, source) },
-                    _ => fill_holes_body(&hemi, &mut got, fill, source),
-                };
+                let holes = super::fill_holes_with(isa, &hemi, &mut got, fill, source);
                 assert_eq!(got, base, "case {case}, {isa:?}, {fill:?}");
                 assert_eq!(holes.0, base_holes.0);
                 assert_eq!(holes.1.to_bits(), base_holes.1.to_bits());

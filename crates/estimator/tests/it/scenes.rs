@@ -4,8 +4,8 @@
 use rad_accel::{VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_estimator::{
-    estimate_rows, windows, Estimator, EstimatorConfig, HoleFill, Mode, Reprojection, Source,
-    SourceHemisphere, ThresholdTest,
+    estimate_rows, windows, Estimate, Estimator, EstimatorConfig, HoleFill, ImprovedEstimate, Mode,
+    Outcome, Reprojection, Source, SourceHemisphere, ThresholdTest,
 };
 use rad_geometry::scenes::{cube, loft};
 use rad_geometry::Scene;
@@ -50,6 +50,34 @@ fn first_difference(a: &[u32], b: &[u32]) -> Option<(usize, u32, u32)> {
         .map(|(c, (x, y))| (c, *x, *y))
 }
 
+/// A faithful estimate of `p` from `src`.
+fn faithful(
+    est: &Estimator,
+    scene: &Scene,
+    src: &SourceHemisphere,
+    p: u32,
+    cfg: &EstimatorConfig,
+) -> Estimate {
+    let mut out = Estimate::default();
+    est.faithful(scene, src, p, cfg, &mut out);
+    out
+}
+
+/// An improved estimate of `p` from `src` (its exact hemisphere if abandoned).
+fn improved(
+    est: &Estimator,
+    scene: &Scene,
+    grid: &VoxelGrid,
+    src: &SourceHemisphere,
+    p: u32,
+    cfg: &EstimatorConfig,
+    s: &mut <VoxelGrid<'_> as RayCast>::Scratch,
+) -> ImprovedEstimate {
+    let mut out = ImprovedEstimate::default();
+    est.improved(scene, grid, src, p, cfg, s, &mut out);
+    out
+}
+
 #[test]
 fn zero_motion_gives_the_source_hemisphere_in_both_modes() {
     for desc in [cube(10), loft()] {
@@ -62,7 +90,8 @@ fn zero_motion_gives_the_source_hemisphere_in_both_modes() {
             for lists in [false, true] {
                 let src = SourceHemisphere::cast(&scene, &grid, &hemi, p, lists, &mut s);
                 for reprojection in [Reprojection::Exact, LATERAL, DISTANCE] {
-                    let f = est.faithful(
+                    let f = faithful(
+                        &est,
                         &scene,
                         &src,
                         p,
@@ -70,11 +99,12 @@ fn zero_motion_gives_the_source_hemisphere_in_both_modes() {
                     );
                     assert_eq!(f.holes, 0);
                     assert_eq!(
-                        first_difference(&f.items.patch, &src.items.patch),
+                        first_difference(&f.items.patch, &src.items().patch),
                         None,
                         "faithful, patch {p}"
                     );
-                    let i = est.improved(
+                    let i = improved(
+                        &est,
                         &scene,
                         &grid,
                         &src,
@@ -83,7 +113,7 @@ fn zero_motion_gives_the_source_hemisphere_in_both_modes() {
                         &mut s,
                     );
                     assert_eq!(
-                        first_difference(&i.items.patch, &src.items.patch),
+                        first_difference(&i.items.patch, &src.items().patch),
                         None,
                         "improved, patch {p}"
                     );
@@ -112,12 +142,12 @@ fn zero_motion_with_coarse_guesses() {
                     stride,
                     config(Mode::Improved, HoleFill::RingNeighbour, LATERAL, lists),
                 );
-                let i = est.improved(&scene, &grid, &src, p, &cfg, &mut s);
+                let i = improved(&est, &scene, &grid, &src, p, &cfg, &mut s);
                 let wrong = i
                     .items
                     .patch
                     .iter()
-                    .zip(&src.items.patch)
+                    .zip(&src.items().patch)
                     .filter(|(a, b)| a != b)
                     .count();
                 assert_eq!(wrong, 0, "patch {p}, stride {stride}: cells differ");
@@ -292,14 +322,23 @@ fn improved_mode_abandons_over_its_real_ray_share() {
                 guess_stride: 1,
                 ..config(Mode::Improved, HoleFill::RingNeighbour, LATERAL, false)
             };
-            let all = est.improved(&scene, &grid, &src, p, &with(1.0), &mut s);
-            let none = est.improved(&scene, &grid, &src, p, &with(0.0), &mut s);
-            assert!(!all.abandoned);
+            let mut all = ImprovedEstimate::default();
+            let mut none = ImprovedEstimate::default();
+            let all_outcome = est.improved(&scene, &grid, &src, p, &with(1.0), &mut s, &mut all);
+            let outcome = est.improved(&scene, &grid, &src, p, &with(0.0), &mut s, &mut none);
+            assert_eq!(all_outcome, Outcome::Estimated);
             assert_eq!(all.items.patch.len(), hemi.n_cells());
             assert_eq!(none.real_rays, all.real_rays, "patch {p}");
-            assert_eq!(none.abandoned, all.real_rays > 0, "patch {p}");
-            if none.abandoned {
-                assert!(none.items.patch.is_empty() && none.items.dist.is_empty());
+            assert_eq!(
+                outcome == Outcome::CastExactly,
+                all.real_rays > 0,
+                "patch {p}"
+            );
+            if outcome == Outcome::CastExactly {
+                // Cast exactly instead: the patch's own exact hemisphere.
+                let mut exact = rad_hemisphere::ItemBuffer::default();
+                hemi.cast(&scene, &grid, p, &mut s, &mut exact);
+                assert_eq!(none.items, exact, "patch {p}");
                 some_real += 1;
             } else {
                 assert_eq!(none.items, all.items);
@@ -335,9 +374,16 @@ fn improved_estimates_do_not_depend_on_the_previous_scene() {
                 guess_stride: stride,
                 ..config(Mode::Improved, HoleFill::RingNeighbour, LATERAL, false)
             };
-            Estimator::new(&hemi)
-                .improved(&scene, &grid, &src, w.estimated[0], &cfg, &mut s)
-                .items
+            improved(
+                &Estimator::new(&hemi),
+                &scene,
+                &grid,
+                &src,
+                w.estimated[0],
+                &cfg,
+                &mut s,
+            )
+            .items
         };
         // The cube with its faces in another order: its polygon 0 is another face.
         let turned = || {

@@ -4,7 +4,7 @@ use rad_accel::VoxelGrid;
 use rad_geometry::scenes::{cornell_box, cube, loft};
 use rad_geometry::Scene;
 use rad_hemisphere::{compute_rows, Hemisphere, HemisphereConfig};
-use rad_repro::default_grid;
+use rad_pipeline::default_grid;
 use rad_repro::reciprocity::{discretisation_bound, pairs, point_asymmetry, summarise};
 
 #[test]
@@ -90,7 +90,7 @@ fn loft_reciprocity_holds_within_the_discretisation_bound() {
 
 /// Exact rows of every patch of a scene at a small resolution.
 fn all_rows_matrix(scene: &Scene, res: (u32, u32)) -> rad_solver::FormFactors {
-    let grid = rad_accel::VoxelGrid::build(scene, &rad_repro::default_grid()).unwrap();
+    let grid = rad_accel::VoxelGrid::build(scene, &rad_pipeline::default_grid()).unwrap();
     let hemi =
         rad_hemisphere::Hemisphere::new(rad_hemisphere::HemisphereConfig::exact(res.0, res.1))
             .unwrap();
@@ -102,7 +102,7 @@ fn all_rows_matrix(scene: &Scene, res: (u32, u32)) -> rad_solver::FormFactors {
 
 #[test]
 fn furnace_and_energy_balance_on_real_rows() {
-    use rad_repro::radiosity::{solve, surfaces, SolveOptions};
+    use rad_pipeline::solve::{solve, surfaces, SolveOptions};
     use rad_solver::{SolveConfig, Solver, Surfaces};
     let opts = |solver| SolveOptions {
         solver,

@@ -155,3 +155,24 @@ mod tests {
         assert!((auto_exposure(&img) - 0.8 / 94.0).abs() < 1e-6);
     }
 }
+
+/// Renders the radiosities `b` of `scene` from `view` (rays through the voxel grid) and
+/// writes the EXR to `exr`, and a PNG preview to `png` if given, at `exposure` (else
+/// [`auto_exposure`]'s).
+pub fn render_to_files(
+    scene: &rad_geometry::Scene,
+    b: &[[f64; 3]],
+    view: &rad_render::View,
+    config: &rad_render::RenderConfig,
+    exr: &Path,
+    png: Option<&Path>,
+    exposure: Option<f32>,
+) -> Result<(), Error> {
+    let grid = rad_accel::VoxelGrid::build(scene, &crate::default_grid())?;
+    let img = rad_render::render(scene, &grid, view, b, config)?;
+    write_exr(exr, &img)?;
+    if let Some(p) = png {
+        write_png(p, &img, exposure.unwrap_or_else(|| auto_exposure(&img)))?;
+    }
+    Ok(())
+}

@@ -1,15 +1,17 @@
 //! From rows to radiosities: a scene's surfaces, the reciprocal matrix, a solve with
 //! its energy balance, and the solution file that `coherad solve` writes and
-//! `coherad render` reads.
+//! `coherad render` reads (with serde: errors give the line and column).
 
-use crate::Error;
+use crate::{Error, RowMethod, SceneFile};
 use rad_core::PatchId;
 use rad_geometry::Scene;
+use rad_hemisphere::Hemisphere;
 use rad_solver::{
     energy_balance, gauss_seidel, progressive, EnergyBalance, FormFactors, Reciprocity, Solution,
     SolveConfig, Solver, Surfaces,
 };
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
 use std::time::Instant;
 
 /// Area, emission and reflectance of every patch, from the scene's materials.
@@ -101,13 +103,6 @@ pub fn solve(ff: &FormFactors, surfaces: &Surfaces, opts: &SolveOptions) -> Resu
     })
 }
 
-/// `Σ_i Σ_j |a_ij − b_ij|` over rows `rows`, divided by their number: the mean L1
-/// distance of two matrices' rows.
-pub fn mean_row_l1(a: &FormFactors, b: &FormFactors, rows: &[PatchId]) -> f64 {
-    let total: f64 = rows.iter().map(|&i| a.row_l1_distance(b, i)).sum();
-    total / rows.len().max(1) as f64
-}
-
 /// The solver's part of a solution file.
 #[derive(Clone, Debug, Serialize)]
 pub struct SolverJson {
@@ -172,10 +167,15 @@ impl SolverJson {
 
 /// The solution file of `coherad solve`.
 #[derive(Clone, Debug, Serialize)]
-pub struct SolutionFile<'a> {
-    pub scene: &'a str,
+pub struct SolutionFile {
+    /// The scene file, as given.
+    pub scene: String,
+    /// Its fingerprint ([`SceneFile::hash_text`]): a solution is read back only against
+    /// the very scene it was made for.
+    pub scene_hash: String,
     pub resolution: [u32; 2],
-    pub method: &'a str,
+    /// [`RowMethod::rows_name`].
+    pub method: &'static str,
     pub n_patches: usize,
     pub solver: SolverJson,
     /// Seconds: form factors, reciprocal scaling, solve.
@@ -193,46 +193,105 @@ pub struct Timings {
     pub solve_seconds: f64,
 }
 
-/// Reads the radiosities of a solution file, for display (ambient term added), and
-/// checks them against the scene: the right count, finite and non-negative.
-pub fn read_solution(text: &str, scene: &Scene) -> Result<Vec<[f64; 3]>, Error> {
-    let bad = |reason: String| Error::Parse {
-        what: "solution file",
-        input: String::new(),
-        reason,
+/// Every row of `scene` by `method`, made reciprocal unless told otherwise, solved:
+/// the solution file, and the solve (its reciprocity and energy balance).
+/// `progress(n)` as [`crate::rows`] calls it.
+pub fn solve_scene(
+    scene: &SceneFile,
+    hemi: &Hemisphere,
+    method: RowMethod,
+    opts: &SolveOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<(SolutionFile, Solved), Error> {
+    let n = scene.scene.patches().len();
+    let all: Vec<PatchId> = (0..n as PatchId).collect();
+    let t = Instant::now();
+    let made = crate::rows(&scene.scene, hemi, method, &all, progress)?;
+    let form_factors_seconds = t.elapsed().as_secs_f64();
+    let ff = FormFactors::from_rows(n, made.rows.iter().map(|r| (r.patch, &r.entries[..])))?;
+    drop(made);
+    let solved = solve(&ff, &surfaces(&scene.scene), opts)?;
+    let file = SolutionFile {
+        scene: scene.path.display().to_string(),
+        scene_hash: scene.hash_text(),
+        resolution: [hemi.n_theta() as u32, hemi.n_phi() as u32],
+        method: method.rows_name(),
+        n_patches: n,
+        solver: SolverJson::new(&solved, opts),
+        timings: Timings {
+            form_factors_seconds,
+            scaling_seconds: solved.scaling_seconds,
+            solve_seconds: solved.solve_seconds,
+        },
+        ambient: solved.solution.ambient,
+        radiosity: solved.solution.radiosity.clone(),
     };
-    let v: serde_json::Value =
-        serde_json::from_str(text).map_err(|e| bad(format!("not JSON: {e}")))?;
-    let b = v
-        .get("radiosity")
-        .and_then(|b| b.as_array())
-        .ok_or_else(|| bad("no \"radiosity\" array".into()))?;
-    let n = scene.patches().len();
-    if b.len() != n {
-        return Err(bad(format!(
-            "{} radiosities for a scene of {n} patches (another scene's solution?)",
-            b.len()
-        )));
+    Ok((file, solved))
+}
+
+/// What [`read_solution`] reads of a solution file.
+#[derive(Deserialize)]
+struct SolutionIn {
+    scene_hash: Option<String>,
+    radiosity: Vec<[f64; 3]>,
+    #[serde(default)]
+    ambient: [f64; 3],
+}
+
+/// Reads the radiosities of the solution file `path`, for display (ambient term
+/// added), and checks them against `scene`: made for that very scene file (its
+/// fingerprint), the right count, finite and non-negative.
+pub fn read_solution(path: &Path, scene: &SceneFile) -> Result<Vec<[f64; 3]>, Error> {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse_solution(&text, scene).map_err(|reason| Error::Solution {
+        path: path.to_path_buf(),
+        reason,
+    })
+}
+
+/// [`read_solution`] of a file's text; the error's reason.
+fn parse_solution(text: &str, scene: &SceneFile) -> Result<Vec<[f64; 3]>, String> {
+    let v: SolutionIn =
+        serde_json::from_str(text).map_err(|e| format!("not a solution file: {e}"))?;
+    let want = scene.hash_text();
+    match v.scene_hash {
+        Some(h) if h == want => {}
+        Some(h) => {
+            return Err(format!(
+                "made for another scene (scene_hash {h}; {} is {want}): solve this scene again",
+                scene.path.display()
+            ))
+        }
+        None => {
+            return Err(
+                "has no scene_hash (written by an older coherad?): solve the scene again".into(),
+            )
+        }
     }
-    let triple = |x: &serde_json::Value, what: &str| -> Result<[f64; 3], Error> {
-        let a = x.as_array().filter(|a| a.len() == 3);
-        let vals: Option<Vec<f64>> = a
-            .map(|a| a.iter().map(|c| c.as_f64()).collect::<Option<_>>())
-            .flatten();
-        match vals {
-            Some(v) if v.iter().all(|c| c.is_finite() && *c >= 0.0) => Ok([v[0], v[1], v[2]]),
-            _ => Err(bad(format!("{what} is {x}, not three finite numbers >= 0"))),
+    let n = scene.scene.patches().len();
+    if v.radiosity.len() != n {
+        return Err(format!(
+            "{} radiosities for a scene of {n} patches",
+            v.radiosity.len()
+        ));
+    }
+    let check = |x: [f64; 3], what: &str| {
+        if x.iter().all(|c| c.is_finite() && *c >= 0.0) {
+            Ok(x)
+        } else {
+            Err(format!("{what} is {x:?}, not three finite numbers >= 0"))
         }
     };
-    let ambient = match v.get("ambient") {
-        Some(a) => triple(a, "ambient")?,
-        None => [0.0; 3],
-    };
-    let s = surfaces(scene);
-    b.iter()
+    let ambient = check(v.ambient, "ambient")?;
+    let s = surfaces(&scene.scene);
+    v.radiosity
+        .iter()
         .enumerate()
-        .map(|(i, x)| {
-            let r = triple(x, &format!("radiosity of patch {i}"))?;
+        .map(|(i, &x)| {
+            let r = check(x, &format!("radiosity of patch {i}"))?;
             Ok(std::array::from_fn(|c| {
                 r[c] + s.reflectance[i][c] * ambient[c]
             }))
@@ -245,33 +304,43 @@ mod tests {
     use super::*;
     use rad_geometry::scenes::cube;
 
+    fn cube_file(hash: u64) -> SceneFile {
+        SceneFile {
+            path: "cube.json".into(),
+            scene: Scene::new(cube(2)).unwrap(),
+            hash,
+        }
+    }
+
     #[test]
     fn solution_files_are_checked_against_the_scene() {
-        let scene = Scene::new(cube(2)).unwrap();
-        let ok = format!(
-            "{{\"radiosity\": {}, \"ambient\": [1, 0, 0]}}",
-            serde_json::to_string(&vec![[0.5, 0.25, 0.0]; 24]).unwrap()
-        );
-        let b = read_solution(&ok, &scene).unwrap();
+        let scene = cube_file(7);
+        let file = |b: &[[f64; 3]], hash: &str| {
+            format!(
+                "{{\"scene_hash\": \"{hash}\", \"radiosity\": {}, \"ambient\": [1, 0, 0]}}",
+                serde_json::to_string(b).unwrap()
+            )
+        };
+        let ok = file(&[[0.5, 0.25, 0.0]; 24], &scene.hash_text());
+        let b = parse_solution(&ok, &scene).unwrap();
         assert_eq!(b[3], [0.5 + 0.7, 0.25, 0.0]);
-        for (text, want) in [
-            ("{", "not JSON"),
-            ("{}", "no \"radiosity\""),
-            (
-                "{\"radiosity\": [[1,1,1]]}",
-                "1 radiosities for a scene of 24",
-            ),
-        ] {
-            let e = read_solution(text, &scene).unwrap_err().to_string();
-            assert!(e.contains(want), "{e}");
-        }
+        let other = file(&[[0.5, 0.25, 0.0]; 24], &cube_file(8).hash_text());
         let mut bad = vec![[0.5, 0.25, 0.0]; 24];
         bad[5][1] = -1.0;
-        let text = format!(
-            "{{\"radiosity\": {}}}",
-            serde_json::to_string(&bad).unwrap()
-        );
-        let e = read_solution(&text, &scene).unwrap_err().to_string();
-        assert!(e.contains("radiosity of patch 5"), "{e}");
+        for (text, want) in [
+            ("{".to_string(), "line 1 column 1"),
+            ("{}".to_string(), "missing field `radiosity`"),
+            ("{\"radiosity\": 3}".to_string(), "invalid type"),
+            (other, "made for another scene"),
+            ("{\"radiosity\": []}".to_string(), "no scene_hash"),
+            (
+                file(&[[1.0; 3]], &scene.hash_text()),
+                "1 radiosities for a scene of 24",
+            ),
+            (file(&bad, &scene.hash_text()), "radiosity of patch 5"),
+        ] {
+            let e = parse_solution(&text, &scene).unwrap_err();
+            assert!(e.contains(want), "{e}");
+        }
     }
 }

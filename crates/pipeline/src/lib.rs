@@ -1,0 +1,93 @@
+//! What every coherad user runs, once, for the two front ends (the `coherad` binary and
+//! the reproduction): a scene file loaded and fingerprinted, rows made by a named
+//! [`RowMethod`], the reciprocal matrix and its solve, solution files written and read
+//! back, images written. It computes and writes; it never prints.
+
+pub mod images;
+mod method;
+pub mod output;
+mod parse;
+mod rows;
+mod scene_file;
+pub mod solve;
+
+pub use method::{CasterKind, RowMethod};
+// The vocabulary the front ends need, so that they see the libraries only through
+// the pipeline.
+pub use parse::{parse_patch_list, parse_resolution};
+pub use rad_estimator::Mode;
+pub use rad_hemisphere::{Hemisphere, HemisphereConfig};
+pub use rad_render::{RenderConfig, Shading, View};
+pub use rad_solver::{SolveConfig, Solver};
+pub use rows::{rows, Rows};
+pub use scene_file::SceneFile;
+
+use rad_accel::VoxelGridConfig;
+
+/// Errors of the pipeline.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    #[error(transparent)]
+    Scene(#[from] rad_geometry::Error),
+    #[error(transparent)]
+    Grid(#[from] rad_accel::Error),
+    #[error(transparent)]
+    Hemisphere(#[from] rad_hemisphere::Error),
+    #[error("bad {what} {input:?}: {reason}")]
+    Parse {
+        what: &'static str,
+        input: String,
+        reason: String,
+    },
+    #[error(transparent)]
+    Solver(#[from] rad_solver::Error),
+    #[error(transparent)]
+    Render(#[from] rad_render::Error),
+    #[error(transparent)]
+    Estimator(#[from] rad_estimator::Error),
+    #[error("cannot encode {what}: {reason}")]
+    Encode { what: &'static str, reason: String },
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        path: std::path::PathBuf,
+        source: std::io::Error,
+    },
+    #[error("cannot write {}: {source}", path.display())]
+    Write {
+        path: std::path::PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}: {reason}", path.display())]
+    Solution {
+        path: std::path::PathBuf,
+        reason: String,
+    },
+}
+
+/// The voxel grid used everywhere unless told otherwise ([`VoxelGridConfig::DEFAULT`]).
+pub fn default_grid() -> VoxelGridConfig {
+    VoxelGridConfig::DEFAULT
+}
+
+/// The estimator settings used unless told otherwise (by the CLI and the harness):
+/// ring-neighbour hole filling, first order where R sinθ > 10 |C1C2| (exact elsewhere),
+/// no boundary lists (they help neither mode enough: see results/REPORT.md), and in
+/// improved mode polygons guessed on a grid 3 times coarser, and a patch needing real
+/// rays for over 5 % of its cells cast exactly.
+pub fn default_estimator(mode: rad_estimator::Mode) -> rad_estimator::EstimatorConfig {
+    rad_estimator::EstimatorConfig {
+        mode,
+        fill: rad_estimator::HoleFill::RingNeighbour,
+        reprojection: rad_estimator::Reprojection::FirstOrder {
+            test: rad_estimator::ThresholdTest::Lateral,
+            threshold: 10.0,
+        },
+        boundary_lists: false,
+        max_real_ray_share: 0.05,
+        // Guesses on a grid 3 times coarser (2 or 1 where 3 does not divide the
+        // resolution): as accurate on the loft as per-cell guesses, at about half the
+        // instructions (results/REPORT.md).
+        guess_stride: 3,
+    }
+}

@@ -1,0 +1,204 @@
+//! Ways to make rows, each one value with a stable name: exact through a caster, or
+//! estimated with a mode and its window centres (and fallbacks, and real rays) through
+//! a caster. Every front end (the `coherad` flags, the reproduction, the benches)
+//! names its method with these; nothing else branches on names.
+
+use crate::Error;
+use rad_estimator::Mode;
+use std::fmt;
+use std::str::FromStr;
+
+/// Which caster makes exact hemispheres.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CasterKind {
+    /// The polygon scan ([`rad_hemisphere::Scan`]): each polygon tested on the cells of
+    /// its angular box; the fastest on the bench scenes.
+    Scan,
+    /// A ray a cell through the voxel grid ([`rad_accel::VoxelGrid`]): the report's way.
+    Grid,
+}
+
+impl CasterKind {
+    pub const ALL: [CasterKind; 2] = [CasterKind::Scan, CasterKind::Grid];
+
+    /// Its stable name: `scan` or `grid`.
+    pub fn name(self) -> &'static str {
+        match self {
+            CasterKind::Scan => "scan",
+            CasterKind::Grid => "grid",
+        }
+    }
+}
+
+/// A way to make rows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RowMethod {
+    /// Every hemisphere cast exactly.
+    Exact { caster: CasterKind },
+    /// The report's 3 × 3 windows: centres cast exactly, the rest estimated with `mode`
+    /// (improved mode's real rays and exact fallbacks through the same caster).
+    Estimated { mode: Mode, centres: CasterKind },
+}
+
+impl RowMethod {
+    /// Every method, exact ones first.
+    pub fn all() -> Vec<RowMethod> {
+        let exact = CasterKind::ALL.map(|caster| RowMethod::Exact { caster });
+        let estimated = Mode::ALL.into_iter().flat_map(|mode| {
+            CasterKind::ALL.map(move |centres| RowMethod::Estimated { mode, centres })
+        });
+        exact.into_iter().chain(estimated).collect()
+    }
+
+    /// Its stable name, `exact/<caster>` or `estimated/<mode>/<caster>`, which
+    /// [`RowMethod::from_str`] reads back.
+    pub fn name(self) -> String {
+        match self {
+            RowMethod::Exact { caster } => format!("exact/{}", caster.name()),
+            RowMethod::Estimated { mode, centres } => {
+                format!("estimated/{}/{}", mode.name(), centres.name())
+            }
+        }
+    }
+
+    /// What the rows are, without the caster: `exact`, `estimated/faithful` or
+    /// `estimated/improved`. Every caster gives the same rows, to the bit, so this is
+    /// what form-factor and solution files record.
+    pub fn rows_name(self) -> &'static str {
+        match self {
+            RowMethod::Exact { .. } => "exact",
+            RowMethod::Estimated {
+                mode: Mode::Faithful,
+                ..
+            } => "estimated/faithful",
+            RowMethod::Estimated {
+                mode: Mode::Improved,
+                ..
+            } => "estimated/improved",
+        }
+    }
+
+    /// The caster of its exact hemispheres.
+    pub fn caster(self) -> CasterKind {
+        match self {
+            RowMethod::Exact { caster } => caster,
+            RowMethod::Estimated { centres, .. } => centres,
+        }
+    }
+
+    /// The estimator mode, for an estimated method.
+    pub fn mode(self) -> Option<Mode> {
+        match self {
+            RowMethod::Exact { .. } => None,
+            RowMethod::Estimated { mode, .. } => Some(mode),
+        }
+    }
+
+    pub fn is_exact(self) -> bool {
+        self.mode().is_none()
+    }
+}
+
+impl fmt::Display for CasterKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl fmt::Display for RowMethod {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.name())
+    }
+}
+
+fn bad(what: &'static str, input: &str, reason: String) -> Error {
+    Error::Parse {
+        what,
+        input: input.to_string(),
+        reason,
+    }
+}
+
+impl FromStr for CasterKind {
+    type Err = Error;
+
+    fn from_str(s: &str) -> Result<CasterKind, Error> {
+        caster(s).ok_or_else(|| bad("caster", s, "expected scan or grid".into()))
+    }
+}
+
+fn caster(s: &str) -> Option<CasterKind> {
+    CasterKind::ALL.into_iter().find(|c| c.name() == s)
+}
+
+fn mode(s: &str) -> Option<Mode> {
+    Mode::ALL.into_iter().find(|m| m.name() == s)
+}
+
+impl FromStr for RowMethod {
+    type Err = Error;
+
+    /// A [`RowMethod::name`]; the caster may be left out (then the scan), so that a
+    /// file's [`RowMethod::rows_name`] reads too.
+    fn from_str(s: &str) -> Result<RowMethod, Error> {
+        let err = |reason: String| bad("row method", s, reason);
+        let caster_of = |c: Option<&str>| match c {
+            None => Ok(CasterKind::Scan),
+            Some(c) => {
+                caster(c).ok_or_else(|| err(format!("unknown caster {c:?}: expected scan or grid")))
+            }
+        };
+        let parts: Vec<&str> = s.split('/').collect();
+        match parts[..] {
+            ["exact"] | ["exact", _] => Ok(RowMethod::Exact {
+                caster: caster_of(parts.get(1).copied())?,
+            }),
+            ["estimated", m] | ["estimated", m, _] => Ok(RowMethod::Estimated {
+                mode: mode(m).ok_or_else(|| {
+                    err(format!(
+                        "unknown estimator mode {m:?}: expected faithful or improved"
+                    ))
+                })?,
+                centres: caster_of(parts.get(2).copied())?,
+            }),
+            _ => Err(err(
+                "expected exact[/CASTER] or estimated/MODE[/CASTER], e.g. estimated/improved/scan"
+                    .into(),
+            )),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_read_back() {
+        let all = RowMethod::all();
+        assert_eq!(all.len(), 6);
+        for m in all {
+            assert_eq!(m.name().parse::<RowMethod>().unwrap(), m, "{m}");
+            let short: RowMethod = m.rows_name().parse().unwrap();
+            assert_eq!(short.rows_name(), m.rows_name());
+        }
+        assert_eq!(
+            "estimated/improved/grid".parse::<RowMethod>().unwrap(),
+            RowMethod::Estimated {
+                mode: Mode::Improved,
+                centres: CasterKind::Grid
+            }
+        );
+        for bad in [
+            "",
+            "exact/",
+            "exact/bvh",
+            "estimated",
+            "estimated/best",
+            "x/y/z/w",
+        ] {
+            let e = bad.parse::<RowMethod>().unwrap_err().to_string();
+            assert!(e.contains(&format!("{bad:?}")), "{e}");
+        }
+    }
+}
