@@ -42,21 +42,6 @@ impl RayCast for BruteForce<'_> {
     }
 
     fn all_hits(&self, ray: &Ray, _: &mut (), out: &mut Vec<Hit>) {
-        out.clear();
-        for (idx, poly) in self.scene.polygons().iter().enumerate() {
-            if idx as u32 == ray.skip {
-                continue;
-            }
-            if let Some((t, u, v, front)) = poly.intersect(ray.origin, ray.dir, ray.t_max) {
-                out.push(Hit {
-                    polygon: idx as u32,
-                    u,
-                    v,
-                    t,
-                    front,
-                });
-            }
-        }
-        out.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.polygon.cmp(&b.polygon)));
+        self.scene.all_hits(ray, out)
     }
 }

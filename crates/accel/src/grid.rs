@@ -3,7 +3,7 @@
 use crate::Error;
 use glam::{IVec3, UVec3, Vec3};
 use rad_core::{Hit, PolygonId, Ray, RayCast};
-use rad_geometry::{Polygon, Scene};
+use rad_geometry::{OriginTerms, Polygon, PolygonTerms, Scene};
 
 /// Largest number of voxels a grid may have.
 pub const MAX_VOXELS: u64 = 1 << 27;
@@ -35,21 +35,6 @@ impl VoxelGridConfig {
     };
 }
 
-/// What an intersection reads of a polygon, packed in 64 bytes: the plane, the dual
-/// basis giving (u, v) (`u = p·du − du_off`), and the (u, v) bounds.
-#[derive(Clone, Copy, Debug)]
-#[repr(C, align(64))]
-struct PolyHot {
-    normal: Vec3,
-    plane_d: f32,
-    du: Vec3,
-    du_off: f32,
-    dv: Vec3,
-    dv_off: f32,
-    /// `[u_lo, u_hi, v_lo, v_hi]`, tolerance included.
-    uv_bounds: [f32; 4],
-}
-
 /// Per-thread working memory of a [`VoxelGrid`]: the mailbox, and the per-origin terms
 /// of every polygon for the origin last used by [`RayCast::closest_hits_from`].
 #[derive(Clone, Debug)]
@@ -60,7 +45,7 @@ pub struct GridScratch {
     /// Origin, own polygon and culling the `per_origin` terms were computed for.
     origin: Option<(Vec3, PolygonId, bool)>,
     /// Each polygon's intersection terms for that origin.
-    per_origin: Vec<OriginView>,
+    per_origin: Vec<OriginTerms>,
     /// Polygons marked [`CULLED`] for the current origin.
     culled: Vec<u32>,
 }
@@ -117,7 +102,8 @@ impl GridScratch {
 /// as in [`crate::BruteForce`].
 pub struct VoxelGrid<'s> {
     scene: &'s Scene,
-    hot: Vec<PolyHot>,
+    /// Every polygon's hit-test terms, compact.
+    hot: Vec<PolygonTerms>,
     /// True for polygons whose inside test needs their edges (not parallelograms).
     general: Vec<bool>,
     lo: Vec3,
@@ -206,23 +192,7 @@ impl<'s> VoxelGrid<'s> {
             items.extend_from_slice(l);
             start.push(items.len() as u32);
         }
-        let hot = scene
-            .polygons()
-            .iter()
-            .map(|p| {
-                let (du, dv) = p.dual_basis();
-                PolyHot {
-                    normal: p.normal(),
-                    plane_d: p.plane_offset(),
-                    du,
-                    du_off: p.origin().dot(du),
-                    // (as in Polygon::origin_terms, so both give the same bits)
-                    dv,
-                    dv_off: p.origin().dot(dv),
-                    uv_bounds: p.uv_bounds(),
-                }
-            })
-            .collect();
+        let hot = scene.polygons().iter().map(Polygon::terms).collect();
         Ok(VoxelGrid {
             scene,
             hot,
@@ -333,7 +303,7 @@ impl<'s> VoxelGrid<'s> {
         t_max: f32,
         skip: PolygonId,
         scratch: &mut GridScratch,
-        view: impl Fn(&GridScratch, u32) -> OriginView,
+        view: impl Fn(&GridScratch, u32) -> OriginTerms,
     ) -> Option<Hit> {
         scratch.next_ray();
         if let Some(s) = scratch.stamps.get_mut(skip as usize) {
@@ -370,34 +340,24 @@ impl<'s> VoxelGrid<'s> {
     #[inline(always)]
     fn test(
         &self,
-        h: &OriginView,
+        h: &OriginTerms,
         p: usize,
         d: Vec3,
         t_best: f32,
         best_p: u32,
     ) -> Option<(f32, f32, f32)> {
-        let denom = h.normal.dot(d);
+        let denom = h.denom(d.x, d.y, d.z);
         let t = h.num / denom;
         if !(t > 0.0 && (t < t_best || (t == t_best && (p as u32) < best_p))) {
             return None;
         }
-        let u = h.u0 + t * h.du.dot(d);
-        let v = h.v0 + t * h.dv.dot(d);
-        let [u_lo, u_hi, v_lo, v_hi] = h.uv_bounds;
-        if !((u >= u_lo) & (u <= u_hi) & (v >= v_lo) & (v <= v_hi)) {
+        let (u, v) = h.uv(t, d.x, d.y, d.z);
+        if !h.in_bounds(u, v) {
             return None;
         }
         // Back faces (rare) take the shrunk inside test, as in `Polygon::intersect`.
-        let inside = if denom < 0.0 {
-            !self.general[p] || self.scene.polygons()[p].contains_uv(u, v)
-        } else {
-            self.scene.polygons()[p].contains_uv_back(u, v)
-        };
-        if inside {
-            Some((t, u, v))
-        } else {
-            None
-        }
+        let inside = self.scene.polygons()[p].accepts(denom, !self.general[p], u, v);
+        inside.then_some((t, u, v))
     }
 
     /// The hot loop of [`RayCast::closest_hits_from`]: [`VoxelGrid::closest`] for a ray
@@ -417,7 +377,7 @@ impl<'s> VoxelGrid<'s> {
         start: IVec3,
         stamps: &mut [u32],
         ray: u32,
-        views: &[OriginView],
+        views: &[OriginTerms],
     ) -> Option<Hit> {
         debug_assert!(stamps.len() == self.hot.len() && views.len() == self.hot.len());
         debug_assert!(start.cmpge(IVec3::ZERO).all() && start.cmplt(self.dims).all());
@@ -454,23 +414,16 @@ impl<'s> VoxelGrid<'s> {
                 let h = unsafe { views.get_unchecked(p) };
                 // `VoxelGrid::test`, written out: through a helper this loop runs 10 %
                 // more instructions and 25 % more mispredicted branches (cachegrind).
-                let denom = h.normal.dot(d);
+                let denom = h.denom(d.x, d.y, d.z);
                 let t = h.num / denom;
                 if !(t > 0.0 && (t < t_best || (t == t_best && (p as u32) < best_p))) {
                     continue;
                 }
-                let u = h.u0 + t * h.du.dot(d);
-                let v = h.v0 + t * h.dv.dot(d);
-                let [u_lo, u_hi, v_lo, v_hi] = h.uv_bounds;
-                if !((u >= u_lo) & (u <= u_hi) & (v >= v_lo) & (v <= v_hi)) {
+                let (u, v) = h.uv(t, d.x, d.y, d.z);
+                if !h.in_bounds(u, v) {
                     continue;
                 }
-                let inside = if denom < 0.0 {
-                    !self.general[p] || polygons[p].contains_uv(u, v)
-                } else {
-                    polygons[p].contains_uv_back(u, v)
-                };
-                if inside {
+                if polygons[p].accepts(denom, !self.general[p], u, v) {
                     (t_best, best_p, best_u, best_v) = (t, p as u32, u, v);
                 }
             }
@@ -500,35 +453,6 @@ impl<'s> VoxelGrid<'s> {
     }
 }
 
-/// A polygon's intersection terms for one origin `o`, packed in 64 bytes: the plane
-/// (`num = d_plane − n·o`, so `t = num / n·dir`), (u, v) of `o`, and the (u, v) bounds.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(64))]
-pub(crate) struct OriginView {
-    normal: Vec3,
-    num: f32,
-    du: Vec3,
-    u0: f32,
-    dv: Vec3,
-    v0: f32,
-    uv_bounds: [f32; 4],
-}
-
-impl OriginView {
-    #[inline(always)]
-    fn new(h: &PolyHot, o: Vec3) -> OriginView {
-        OriginView {
-            normal: h.normal,
-            num: h.plane_d - h.normal.dot(o),
-            du: h.du,
-            u0: o.dot(h.du) - h.du_off,
-            dv: h.dv,
-            v0: o.dot(h.dv) - h.dv_off,
-            uv_bounds: h.uv_bounds,
-        }
-    }
-}
-
 fn poly_bounds(poly: &Polygon) -> (Vec3, Vec3) {
     poly.vertices().iter().fold(
         (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
@@ -545,7 +469,7 @@ impl RayCast for VoxelGrid<'_> {
             stamps: vec![0; n],
             ray: 0,
             origin: None,
-            per_origin: vec![OriginView::default(); n],
+            per_origin: vec![OriginTerms::default(); n],
             culled: Vec::new(),
         }
     }
@@ -556,7 +480,7 @@ impl RayCast for VoxelGrid<'_> {
         let (p, _) = self.entry(o, ray.dir, ray.t_max)?;
         let start = self.voxel_of(p);
         self.closest(o, ray.dir, start, ray.t_max, ray.skip, scratch, |_, p| {
-            OriginView::new(&self.hot[p as usize], o)
+            self.hot[p as usize].at(o)
         })
     }
 
@@ -575,7 +499,7 @@ impl RayCast for VoxelGrid<'_> {
         if scratch.origin != Some((origin, skip, cull)) {
             scratch.uncull();
             for (t, h) in scratch.per_origin.iter_mut().zip(&self.hot) {
-                *t = OriginView::new(h, origin);
+                *t = h.at(origin);
             }
             if let (true, Some(n)) = (cull, own) {
                 let (o, n) = (origin.as_dvec3(), n.as_dvec3());

@@ -2,11 +2,13 @@
 //! [`RayCast`] trait through which form-factor code sees an accelerator.
 
 mod frame;
+mod ids;
 mod ray;
 mod rgb;
 
 pub use frame::Frame;
-pub use ray::{Hit, Ray, RayCast, NO_POLYGON};
+pub use ids::{PatchId, PolygonId, BACK, ESCAPED, HOLE, NO_POLYGON};
+pub use ray::{Hit, Ray, RayCast};
 pub use rgb::Rgb;
 
 pub use glam::Vec3;
@@ -117,11 +119,6 @@ macro_rules! with_isa {
         }
     };
 }
-
-/// Index of a polygon in its scene.
-pub type PolygonId = u32;
-/// Index of a patch (one texel of a polygon's patch texture) in its scene.
-pub type PatchId = u32;
 
 /// The vector instruction sets kernels are compiled for (baseline, and under
 /// `#[target_feature]` through [`with_isa!`]), one chosen at run time. Every build performs the same IEEE

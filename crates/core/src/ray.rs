@@ -1,10 +1,7 @@
 //! Rays, hits and the [`RayCast`] trait implemented by accelerators.
 
-use crate::PolygonId;
+use crate::{PolygonId, NO_POLYGON};
 use glam::Vec3;
-
-/// Marker for "no polygon" in [`Ray::skip`].
-pub const NO_POLYGON: PolygonId = PolygonId::MAX;
 
 /// A ray `origin + t·dir`, `0 < t < t_max` (both ends exclusive).
 ///

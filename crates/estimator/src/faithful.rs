@@ -4,12 +4,9 @@
 use crate::config::{EstimatorConfig, HoleFill, Reprojection, ThresholdTest};
 use crate::reproject::Motion;
 use crate::source::SourceHemisphere;
-use rad_core::{with_isa, Isa, PatchId};
+use rad_core::{with_isa, Isa, PatchId, HOLE};
 use rad_geometry::Scene;
 use rad_hemisphere::{Hemisphere, ItemBuffer};
-
-/// Marker of a cell nothing landed in.
-pub(crate) const HOLE: PatchId = PatchId::MAX - 2;
 
 /// An estimated hemisphere: what each cell of H2 sees, with the holes that were filled.
 #[derive(Clone, Debug, Default)]

@@ -2,11 +2,11 @@
 //! of H2 with its own ray against the polygons guessed for it and its 8 neighbours.
 
 use crate::config::EstimatorConfig;
-use crate::faithful::{motion, splat, Estimator, Points, ZBuffer, HOLE};
-use crate::source::{SourceHemisphere, NO_POLYGON};
-use rad_core::{Hit, PatchId, PolygonId};
+use crate::faithful::{motion, splat, Estimator, Points, ZBuffer};
+use crate::source::SourceHemisphere;
+use rad_core::{Hit, PatchId, PolygonId, BACK, ESCAPED, HOLE, NO_POLYGON};
 use rad_geometry::Scene;
-use rad_hemisphere::{Caster, ItemBuffer, NearestHits, BACK, ESCAPED};
+use rad_hemisphere::{Caster, ItemBuffer, NearestHits};
 
 /// What became of an improved estimate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -51,7 +51,7 @@ struct Work {
     /// [0, N_φ), end sector, at most first + N_φ).
     runs: Vec<(u64, u32)>,
     ring_runs: Vec<usize>,
-    terms_of: Vec<[f32; 3]>,
+    terms_of: Vec<rad_geometry::OriginTerms>,
     real: Vec<usize>,
     dirs: Vec<glam::Vec3>,
     cast: Vec<Option<Hit>>,
@@ -232,8 +232,7 @@ impl Estimator<'_> {
         // to the lower id, as in the grid. Every polygon's terms for this origin are
         // computed once.
         w.terms_of.clear();
-        w.terms_of
-            .extend(polygons.iter().map(|p| p.origin_terms(o)));
+        w.terms_of.extend(polygons.iter().map(|p| p.terms().at(o)));
         let hits = &mut w.hits;
         hits.begin(hemi, scene, own);
         let tests_before = hits.tests;
@@ -269,7 +268,7 @@ impl Estimator<'_> {
                     b = b.max(b2);
                     cur = next();
                 }
-                let (poly, terms) = (&polygons[g as usize], w.terms_of[g as usize]);
+                let (poly, terms) = (&polygons[g as usize], &w.terms_of[g as usize]);
                 let (a, b, n) = (stride * a, stride * b as usize, fine_n_phi);
                 for ring in fine_rings.clone().map(|r| r * n) {
                     if b - a >= n {
@@ -295,7 +294,7 @@ impl Estimator<'_> {
         let real = &mut w.real;
         real.clear();
         let terms_of = &w.terms_of;
-        let front = |p: u32| terms_of[p as usize][0] < 0.0;
+        let front = |p: u32| terms_of[p as usize].num < 0.0;
         hits.items(polygons, front, patch, dist, |cells, _, _| {
             real.extend(cells)
         });

@@ -24,7 +24,7 @@ pub use faithful::{Estimate, Estimator};
 pub use improved::{ImprovedEstimate, Outcome};
 pub use reproject::{reproject_exact, reproject_first_order, Motion, Reprojected};
 pub use schedule::{windows, Window};
-pub use source::{SourceHemisphere, NO_POLYGON};
+pub use source::SourceHemisphere;
 
 /// Errors of estimation.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

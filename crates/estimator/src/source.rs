@@ -1,9 +1,9 @@
 //! The exact hemisphere H1 kept for estimation: what each cell sees, how far, and the
 //! boundary lists of §3.5.2.
 
-use rad_core::{PatchId, PolygonId, Ray};
+use rad_core::{PatchId, PolygonId, Ray, BACK, ESCAPED, NO_POLYGON};
 use rad_geometry::Scene;
-use rad_hemisphere::{Caster, Hemisphere, ItemBuffer, BACK, ESCAPED};
+use rad_hemisphere::{Caster, Hemisphere, ItemBuffer};
 
 /// An exact hemisphere with, where asked, boundary lists: a cell whose closest hit is a
 /// patch on its polygon's boundary keeps every further front-facing patch its ray
@@ -43,10 +43,6 @@ pub(crate) struct CoarsePoints {
     /// The largest of `dist` in each ring.
     pub ring_max: Vec<f32>,
 }
-
-/// What [`SourceHemisphere::polygons`] gives a cell that sees no polygon (its ray
-/// escaped, or met a back face).
-pub const NO_POLYGON: PolygonId = PolygonId::MAX;
 
 impl SourceHemisphere {
     /// Casts the exact hemisphere of `patch` through `caster` (and its boundary lists

@@ -4,10 +4,12 @@
 mod clip;
 mod error;
 pub mod file;
+mod hit_test;
 mod polygon;
 mod scene;
 pub mod scenes;
 
 pub use error::{Error, PolygonProblem};
+pub use hit_test::{OriginTerms, PolygonTerms};
 pub use polygon::{Patch, Polygon, PolygonHit, MAX_CELLS_PER_POLYGON, PLANARITY_TOLERANCE};
 pub use scene::{Camera, Material, PatchGrid, PolygonDesc, Scene, SceneDesc, MAX_PATCHES};

@@ -313,46 +313,22 @@ impl Polygon {
         Ok(Built { polygon, patches })
     }
 
-    /// Intersects the ray `o + t·d`, `0 < t < t_max`, with this polygon.
+    /// Intersects the ray `o + t·d`, `0 < t < t_max`, with this polygon (the shared hit
+    /// test: [`Polygon::hit_from`] with [`Polygon::terms`] at `o`).
     ///
     /// On the front side, points within a few ulps of the scene's scale outside an edge
     /// count as inside, so polygons that share an edge leave no crack for a ray to slip
     /// through; on the back side the polygon shrinks instead (see [`Polygon::contains_uv_back`]).
     #[inline]
     pub fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<PolygonHit> {
-        self.intersect_from(self.origin_terms(o), d, t_max)
+        self.hit_from(&self.terms().at(o), d, t_max)
     }
 
-    /// Terms of the intersection that depend only on the ray origin `o`:
-    /// `(d − n·o, o·du − origin·du, o·dv − origin·dv)`; see [`Polygon::intersect_from`].
+    /// `d − n·o` for the plane `n·p = d`: [`crate::OriginTerms::num`] at `o`, negative
+    /// where `o` is in front of the plane.
     #[inline]
-    pub fn origin_terms(&self, o: Vec3) -> [f32; 3] {
-        [
-            self.plane_d - self.normal.dot(o),
-            o.dot(self.du) - self.origin.dot(self.du),
-            o.dot(self.dv) - self.origin.dot(self.dv),
-        ]
-    }
-
-    /// [`Polygon::intersect`] from an origin's [`Polygon::origin_terms`]: the
-    /// arithmetic of the voxel grid's shared-origin queries, so that both give the same
-    /// (u, v) to the last bit.
-    #[inline]
-    pub fn intersect_from(&self, terms: [f32; 3], d: Vec3, t_max: f32) -> Option<PolygonHit> {
-        let denom = self.normal.dot(d);
-        let t = terms[0] / denom;
-        if !(t > 0.0 && t < t_max) {
-            return None;
-        }
-        let u = terms[1] + t * self.du.dot(d);
-        let v = terms[2] + t * self.dv.dot(d);
-        let front = denom < 0.0;
-        let inside = if front {
-            self.contains_uv(u, v)
-        } else {
-            self.contains_uv_back(u, v)
-        };
-        inside.then_some((t, u, v, front))
+    pub fn plane_num(&self, o: Vec3) -> f32 {
+        self.plane_d - self.normal.dot(o)
     }
 
     /// [`Polygon::patch_at`] of many parameters at once: `out[k] = patch_at(u[k], v[k])`,

@@ -3,7 +3,7 @@
 use crate::error::{Error, PolygonProblem};
 use crate::polygon::{Patch, Polygon};
 use glam::Vec3;
-use rad_core::{PatchId, Rgb};
+use rad_core::{Hit, PatchId, PolygonId, Ray, Rgb};
 
 /// Largest number of patches a scene may have.
 pub const MAX_PATCHES: u64 = 1 << 26;
@@ -206,6 +206,28 @@ impl Scene {
     pub fn patch_material(&self, patch: PatchId) -> &Material {
         let poly = self.patches[patch as usize].polygon;
         &self.materials[self.polygons[poly as usize].material() as usize]
+    }
+
+    /// Every polygon `ray` crosses with `0 < t < ray.t_max` but `ray.skip`, sorted by
+    /// `t` (ties by id), into `out` after clearing it: brute force, each polygon by the
+    /// shared hit test (what accelerators answer `all_hits` with).
+    pub fn all_hits(&self, ray: &Ray, out: &mut Vec<Hit>) {
+        out.clear();
+        for (idx, poly) in self.polygons.iter().enumerate() {
+            if idx as PolygonId == ray.skip {
+                continue;
+            }
+            if let Some((t, u, v, front)) = poly.intersect(ray.origin, ray.dir, ray.t_max) {
+                out.push(Hit {
+                    polygon: idx as PolygonId,
+                    u,
+                    v,
+                    t,
+                    front,
+                });
+            }
+        }
+        out.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.polygon.cmp(&b.polygon)));
     }
 }
 

@@ -7,8 +7,8 @@
 //! and the same hits, to the bit: the same f32 test of each (ray, polygon) pair, the
 //! same culling and the same tie rule (the lower polygon id).
 
-use crate::{Hemisphere, ItemBuffer, ScanScratch, NO_HIT};
-use rad_core::{Hit, PatchId, PolygonId, Ray, RayCast, Vec3};
+use crate::{Hemisphere, ItemBuffer, ScanScratch};
+use rad_core::{Hit, PatchId, PolygonId, Ray, RayCast, Vec3, NO_POLYGON};
 use rad_geometry::Scene;
 
 /// Fills exact item buffers of one scene's hemispheres, with per-thread scratch.
@@ -140,13 +140,13 @@ impl Caster for Scan {
             hits.test(
                 poly,
                 id as PolygonId,
-                poly.origin_terms(origin),
+                &poly.terms().at(origin),
                 0..dirs.len(),
             );
         }
         out.extend((0..dirs.len()).map(|k| {
             let (polygon, t, u, v) = hits.nearest(k);
-            (polygon != NO_HIT).then(|| Hit {
+            (polygon != NO_POLYGON).then(|| Hit {
                 polygon,
                 u,
                 v,
@@ -157,21 +157,6 @@ impl Caster for Scan {
     }
 
     fn all_hits_along(&self, scene: &Scene, ray: &Ray, _: &mut ScanScratch, out: &mut Vec<Hit>) {
-        out.clear();
-        for (idx, poly) in scene.polygons().iter().enumerate() {
-            if idx as PolygonId == ray.skip {
-                continue;
-            }
-            if let Some((t, u, v, front)) = poly.intersect(ray.origin, ray.dir, ray.t_max) {
-                out.push(Hit {
-                    polygon: idx as PolygonId,
-                    u,
-                    v,
-                    t,
-                    front,
-                });
-            }
-        }
-        out.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.polygon.cmp(&b.polygon)));
+        scene.all_hits(ray, out)
     }
 }

@@ -17,8 +17,9 @@ mod scan;
 pub use caster::{Caster, Scan};
 pub use cells::{delta_form_factors, DeltaRule, Hemisphere, HemisphereConfig, MAX_CELLS};
 pub use lambert::point_to_polygon_form_factor;
-pub use row::{compute_rows, ItemBuffer, Row, RowAccumulator, BACK, ESCAPED};
-pub use scan::{NearestHits, ScanScratch, ScanStats, NO_HIT};
+pub use rad_core::{BACK, ESCAPED};
+pub use row::{compute_rows, ItemBuffer, Row, RowAccumulator};
+pub use scan::{NearestHits, ScanScratch, ScanStats};
 
 /// Errors from setting up a hemisphere.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

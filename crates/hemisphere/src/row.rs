@@ -1,14 +1,9 @@
 //! Item buffers (what each cell sees) and sparse form-factor rows.
 
 use crate::{Caster, Error, Hemisphere};
-use rad_core::{PatchId, RayCast};
+use rad_core::{PatchId, RayCast, BACK, ESCAPED};
 use rad_geometry::Scene;
 use rayon::prelude::*;
-
-/// Item-buffer id of a cell whose ray left the scene.
-pub const ESCAPED: PatchId = PatchId::MAX;
-/// Item-buffer id of a cell whose ray met a polygon from behind (see DESIGN.md §2).
-pub const BACK: PatchId = PatchId::MAX - 1;
 
 /// What each cell of one hemisphere sees: a patch id (or [`ESCAPED`], [`BACK`]) and the
 /// distance R to it (infinite for escaped rays).

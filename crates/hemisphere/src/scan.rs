@@ -15,16 +15,12 @@
 //! are tested; they are conservative, and a polygon whose box could be unreliable (its
 //! plane passes within rounding of the origin) is tested on every cell.
 
-use crate::row::{BACK, ESCAPED};
 use crate::{Hemisphere, ItemBuffer};
 use glam::{DVec3, Vec3};
-use rad_core::{with_isa, Isa, PatchId, PolygonId};
-use rad_geometry::{Polygon, Scene};
+use rad_core::{with_isa, Isa, PatchId, PolygonId, BACK, ESCAPED, NO_POLYGON};
+use rad_geometry::{OriginTerms, Polygon, Scene};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::ops::Range;
-
-/// No polygon yet: the cell's ray has met nothing (see [`NearestHits::items`]).
-pub const NO_HIT: u32 = u32::MAX;
 
 /// The nearest hit of every cell's ray of one hemisphere, against polygons tested on
 /// chosen cells: the voxel grid's ray–polygon test, term for term (so the same bits),
@@ -76,18 +72,6 @@ pub struct ScanStats {
     pub full: u64,
 }
 
-/// The polygon's terms for one origin, as the grid computes them.
-struct Terms {
-    id: u32,
-    num: f32,
-    u0: f32,
-    v0: f32,
-    n: Vec3,
-    du: Vec3,
-    dv: Vec3,
-    bounds: [f32; 4],
-}
-
 /// Cells whose ray may meet a polygon.
 #[derive(Debug, PartialEq)]
 enum Region {
@@ -127,7 +111,7 @@ impl Hemisphere {
             if id == own as usize {
                 continue;
             }
-            let terms = poly.origin_terms(o);
+            let terms = poly.terms().at(o);
             // The grid's culling, ring by ring as it queries them: a polygon wholly
             // behind the plane by more than its reach is skipped in every ring whose
             // rays all leave the plane forwards. (It should have no hits there; skipping
@@ -137,12 +121,12 @@ impl Hemisphere {
                 for ring in 0..self.n_theta() {
                     if !s.hits.forward[ring] {
                         s.hits
-                            .test(poly, id as u32, terms, ring * np..(ring + 1) * np);
+                            .test(poly, id as u32, &terms, ring * np..(ring + 1) * np);
                     }
                 }
                 continue;
             }
-            let num = terms[0];
+            let num = terms.num;
             // t = num / (n·d) > 0: front hits (n·d < 0) need num < 0, back hits num > 0,
             // and num = 0 gives none.
             if num == 0.0 || num.is_nan() {
@@ -158,7 +142,7 @@ impl Hemisphere {
                 Region::None => {}
                 Region::All => {
                     s.stats.full += 1;
-                    s.hits.test(poly, id as u32, terms, 0..n_cells);
+                    s.hits.test(poly, id as u32, &terms, 0..n_cells);
                 }
                 Region::Box { theta, phi } => {
                     let (nt, np) = (self.n_theta(), self.n_phi());
@@ -183,11 +167,11 @@ impl Hemisphere {
                     for i in i0..=i1 {
                         let ring = i * np;
                         match spans {
-                            None => s.hits.test(poly, id as u32, terms, ring..ring + np),
+                            None => s.hits.test(poly, id as u32, &terms, ring..ring + np),
                             Some(spans) => {
                                 for (a, b) in spans {
                                     if b > a {
-                                        s.hits.test(poly, id as u32, terms, ring + a..ring + b);
+                                        s.hits.test(poly, id as u32, &terms, ring + a..ring + b);
                                     }
                                 }
                             }
@@ -204,13 +188,13 @@ impl Hemisphere {
         buf.patch.resize(n_cells, 0);
         buf.dist.resize(n_cells, 0.0);
         // Front hits need a negative plane term (see above).
-        let front = |p: PolygonId| polygons[p as usize].origin_terms(o)[0] < 0.0;
+        let front = |p: PolygonId| polygons[p as usize].plane_num(o) < 0.0;
         s.hits.items(
             polygons,
             front,
             &mut buf.patch,
             &mut buf.dist,
-            |_, p, ids| ids.fill(if p == NO_HIT { ESCAPED } else { BACK }),
+            |_, p, ids| ids.fill(if p == NO_POLYGON { ESCAPED } else { BACK }),
         );
     }
 }
@@ -224,34 +208,29 @@ impl NearestHits {
         self.best_t.clear();
         self.best_t.resize(n_cells, f32::INFINITY);
         self.best_p.clear();
-        self.best_p.resize(n_cells, NO_HIT);
+        self.best_p.resize(n_cells, NO_POLYGON);
         self.best_u.resize(n_cells, 0.0);
         self.best_v.resize(n_cells, 0.0);
     }
 
-    /// Tests polygon `id` (= `poly`), with its [`Polygon::origin_terms`] for the
-    /// hemisphere's origin, on `cells`, keeping the nearer hit (strictly: a tie keeps the
-    /// polygon tested first). Front hits count where [`Polygon::contains_uv`] holds, back
-    /// hits where [`Polygon::contains_uv_back`] does, as in the grid.
-    pub fn test(&mut self, poly: &Polygon, id: PolygonId, terms: [f32; 3], cells: Range<usize>) {
-        let (du, dv) = poly.dual_basis();
-        let h = Terms {
-            id,
-            num: terms[0],
-            u0: terms[1],
-            v0: terms[2],
-            n: poly.normal(),
-            du,
-            dv,
-            bounds: poly.uv_bounds(),
-        };
-        test_span(poly, &h, self, cells.start, cells.end);
+    /// Tests polygon `id` (= `poly`), with its terms for the hemisphere's origin
+    /// ([`rad_geometry::PolygonTerms::at`]), on `cells`, keeping the nearer hit
+    /// (strictly: a tie keeps the polygon tested first), by the shared hit test
+    /// ([`rad_geometry::OriginTerms`], [`Polygon::accepts`]), as the grid does.
+    pub fn test(
+        &mut self,
+        poly: &Polygon,
+        id: PolygonId,
+        terms: &OriginTerms,
+        cells: Range<usize>,
+    ) {
+        test_span(poly, id, terms, self, cells.start, cells.end);
     }
 
     /// Writes the item buffer of the hits so far: every cell's distance (∞ where nothing
     /// was hit), and the patch of each run of cells whose nearest hit is on one polygon
     /// `p` with `front(p)` (looked up together, `Polygon::patches_at`); the other runs
-    /// (no hit: `p` is [`NO_HIT`]; or a back face) go to `other(cells, p, their ids)`.
+    /// (no hit: `p` is [`NO_POLYGON`]; or a back face) go to `other(cells, p, their ids)`.
     pub fn items(
         &self,
         polygons: &[Polygon],
@@ -270,7 +249,7 @@ impl NearestHits {
             while end < n && self.best_p[end] == p {
                 end += 1;
             }
-            if p != NO_HIT && front(p) {
+            if p != NO_POLYGON && front(p) {
                 polygons[p as usize].patches_at(
                     &self.best_u[k..end],
                     &self.best_v[k..end],
@@ -296,12 +275,12 @@ impl NearestHits {
         self.best_t.clear();
         self.best_t.resize(n, f32::INFINITY);
         self.best_p.clear();
-        self.best_p.resize(n, NO_HIT);
+        self.best_p.resize(n, NO_POLYGON);
         self.best_u.resize(n, 0.0);
         self.best_v.resize(n, 0.0);
     }
 
-    /// Cell `c`'s nearest hit so far: (polygon or [`NO_HIT`], t, u, v).
+    /// Cell `c`'s nearest hit so far: (polygon or [`NO_POLYGON`], t, u, v).
     #[inline]
     pub fn nearest(&self, c: usize) -> (PolygonId, f32, f32, f32) {
         (
@@ -394,7 +373,14 @@ fn world_dirs(poly: &Polygon, s: &mut NearestHits, cells: Range<usize>) -> bool 
 
 /// Tests cells `a..b` against one polygon, keeping the nearer hit (ties keep the earlier,
 /// lower polygon id).
-fn test_span(poly: &Polygon, h: &Terms, s: &mut NearestHits, a: usize, b: usize) {
+fn test_span(
+    poly: &Polygon,
+    id: PolygonId,
+    h: &OriginTerms,
+    s: &mut NearestHits,
+    a: usize,
+    b: usize,
+) {
     s.tests += (b - a) as u64;
     // A front-facing parallelogram is inside its (u, v) bounds alone: every lane runs
     // the same code and writes its hit. Other polygons take the bounds as a first cut,
@@ -406,7 +392,8 @@ fn test_span(poly: &Polygon, h: &Terms, s: &mut NearestHits, a: usize, b: usize)
     s.mask.resize(b - a, 0);
     let mask = &mut s.mask[..b - a];
     with_isa!(Isa::detect(), |ISA| fn(
-        h: &Terms = h,
+        h: &OriginTerms = h,
+        id: PolygonId = id,
         simple: bool = simple,
         dx: &[f32] = dx,
         dy: &[f32] = dy,
@@ -418,9 +405,9 @@ fn test_span(poly: &Polygon, h: &Terms, s: &mut NearestHits, a: usize, b: usize)
         mask: &mut [u8] = mask,
     ) {
         if simple {
-            span::<true>(h, dx, dy, dz, bt, bp, bu, bv, mask)
+            span::<true>(h, id, dx, dy, dz, bt, bp, bu, bv, mask)
         } else {
-            span::<false>(h, dx, dy, dz, bt, bp, bu, bv, mask)
+            span::<false>(h, id, dx, dy, dz, bt, bp, bu, bv, mask)
         }
     });
     if simple || !mask.contains(&1) {
@@ -430,18 +417,12 @@ fn test_span(poly: &Polygon, h: &Terms, s: &mut NearestHits, a: usize, b: usize)
         if mask[k] == 0 {
             continue;
         }
-        let d = Vec3::new(dx[k], dy[k], dz[k]);
-        let denom = h.n.dot(d);
+        let (x, y, z) = (dx[k], dy[k], dz[k]);
+        let denom = h.denom(x, y, z);
         let t = h.num / denom;
-        let u = h.u0 + t * h.du.dot(d);
-        let v = h.v0 + t * h.dv.dot(d);
-        let inside = if denom < 0.0 {
-            poly.contains_uv(u, v)
-        } else {
-            poly.contains_uv_back(u, v)
-        };
-        if inside {
-            (bt[k], bp[k], bu[k], bv[k]) = (t, h.id, u, v);
+        let (u, v) = h.uv(t, x, y, z);
+        if poly.accepts(denom, false, u, v) {
+            (bt[k], bp[k], bu[k], bv[k]) = (t, id, u, v);
         }
     }
 }
@@ -452,7 +433,8 @@ fn test_span(poly: &Polygon, h: &Terms, s: &mut NearestHits, a: usize, b: usize)
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn span<const SIMPLE: bool>(
-    h: &Terms,
+    h: &OriginTerms,
+    id: PolygonId,
     dx: &[f32],
     dy: &[f32],
     dz: &[f32],
@@ -472,18 +454,15 @@ fn span<const SIMPLE: bool>(
         &mut bv[..n],
         &mut mask[..n],
     );
-    let [u_lo, u_hi, v_lo, v_hi] = h.bounds;
     for k in 0..n {
         let (x, y, z) = (dx[k], dy[k], dz[k]);
-        // glam's dot, term by term, so that the bits are the grid's.
-        let denom = (h.n.x * x + h.n.y * y) + h.n.z * z;
-        let t = h.num / denom;
-        let u = h.u0 + t * ((h.du.x * x + h.du.y * y) + h.du.z * z);
-        let v = h.v0 + t * ((h.dv.x * x + h.dv.y * y) + h.dv.z * z);
-        let hit = (t > 0.0) & (t < bt[k]) & (u >= u_lo) & (u <= u_hi) & (v >= v_lo) & (v <= v_hi);
+        // The shared hit test (the grid's arithmetic, so the grid's bits).
+        let t = h.num / h.denom(x, y, z);
+        let (u, v) = h.uv(t, x, y, z);
+        let hit = (t > 0.0) & (t < bt[k]) & h.in_bounds(u, v);
         if SIMPLE {
             bt[k] = if hit { t } else { bt[k] };
-            bp[k] = if hit { h.id } else { bp[k] };
+            bp[k] = if hit { id } else { bp[k] };
             bu[k] = if hit { u } else { bu[k] };
             bv[k] = if hit { v } else { bv[k] };
         } else {

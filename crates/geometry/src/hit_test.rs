@@ -1,0 +1,128 @@
+//! The one ray–polygon hit test, in f32, shared by every caster (the voxel grid's rays,
+//! the polygon scan's spans, improved estimation's guesses, brute force), so that they
+//! agree by construction, to the bit.
+//!
+//! A ray `o + t·dir` meets the plane `n·p = d` at `t = (d − n·o) / n·dir`, at
+//! parameters `u = u(o) + t du·dir`, `v = v(o) + t dv·dir` (du, dv the dual basis of
+//! the polygon's edges). Everything but the three dot products with `dir` depends on
+//! the origin alone: [`OriginTerms`], made once per origin from the polygon's own
+//! [`PolygonTerms`]. Dot products are glam's, term by term (`(x + y) + z`), and nothing
+//! is fused, so a vectorised kernel and a scalar one give the same bits.
+
+use crate::Polygon;
+use glam::Vec3;
+
+/// What the hit test reads of a polygon, packed in 64 bytes: the plane (`n·p = d`),
+/// the dual basis giving (u, v) (`u = p·du − du_off`), and the (u, v) bounds.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(64))]
+pub struct PolygonTerms {
+    pub normal: Vec3,
+    pub plane_d: f32,
+    pub du: Vec3,
+    pub du_off: f32,
+    pub dv: Vec3,
+    pub dv_off: f32,
+    /// `[u_lo, u_hi, v_lo, v_hi]`: see [`Polygon::uv_bounds`].
+    pub uv_bounds: [f32; 4],
+}
+
+/// A polygon's hit-test terms for rays from one origin `o`, packed in 64 bytes.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(64))]
+pub struct OriginTerms {
+    pub normal: Vec3,
+    /// `d − n·o`: `t = num / n·dir`. Negative where `o` is in front of the plane.
+    pub num: f32,
+    pub du: Vec3,
+    /// u of `o`.
+    pub u0: f32,
+    pub dv: Vec3,
+    /// v of `o`.
+    pub v0: f32,
+    pub uv_bounds: [f32; 4],
+}
+
+impl PolygonTerms {
+    /// The terms for rays from `o`.
+    #[inline(always)]
+    pub fn at(&self, o: Vec3) -> OriginTerms {
+        OriginTerms {
+            normal: self.normal,
+            num: self.plane_d - self.normal.dot(o),
+            du: self.du,
+            u0: o.dot(self.du) - self.du_off,
+            dv: self.dv,
+            v0: o.dot(self.dv) - self.dv_off,
+            uv_bounds: self.uv_bounds,
+        }
+    }
+}
+
+impl OriginTerms {
+    /// `n·dir`: negative for a ray meeting the front (the side the normal points to).
+    #[inline(always)]
+    pub fn denom(&self, x: f32, y: f32, z: f32) -> f32 {
+        (self.normal.x * x + self.normal.y * y) + self.normal.z * z
+    }
+
+    /// (u, v) of the point at `t` along `dir` = (x, y, z).
+    #[inline(always)]
+    pub fn uv(&self, t: f32, x: f32, y: f32, z: f32) -> (f32, f32) {
+        (
+            self.u0 + t * ((self.du.x * x + self.du.y * y) + self.du.z * z),
+            self.v0 + t * ((self.dv.x * x + self.dv.y * y) + self.dv.z * z),
+        )
+    }
+
+    /// Whether (u, v) lies within the (u, v) bounds (for a front-facing parallelogram,
+    /// that is the whole inside test: see [`Polygon::uv_bounds`]).
+    #[inline(always)]
+    pub fn in_bounds(&self, u: f32, v: f32) -> bool {
+        let [u_lo, u_hi, v_lo, v_hi] = self.uv_bounds;
+        (u >= u_lo) & (u <= u_hi) & (v >= v_lo) & (v <= v_hi)
+    }
+}
+
+impl Polygon {
+    /// Its hit-test terms (see the module documentation).
+    #[inline]
+    pub fn terms(&self) -> PolygonTerms {
+        PolygonTerms {
+            normal: self.normal(),
+            plane_d: self.plane_offset(),
+            du: self.dual_basis().0,
+            du_off: self.origin().dot(self.dual_basis().0),
+            dv: self.dual_basis().1,
+            dv_off: self.origin().dot(self.dual_basis().1),
+            uv_bounds: self.uv_bounds(),
+        }
+    }
+
+    /// Whether a hit at (u, v) counts: on the front (`denom < 0`), inside within the
+    /// tolerance ([`Polygon::contains_uv`]; a parallelogram already known to be within
+    /// its bounds passes with `bounded`); on the back, inside the shrunk polygon
+    /// ([`Polygon::contains_uv_back`]).
+    #[inline(always)]
+    pub fn accepts(&self, denom: f32, bounded: bool, u: f32, v: f32) -> bool {
+        if denom < 0.0 {
+            bounded || self.contains_uv(u, v)
+        } else {
+            self.contains_uv_back(u, v)
+        }
+    }
+
+    /// The hit of the ray `o + t·d`, `0 < t < t_max`, given this polygon's terms for
+    /// `o`: (t, u, v, front).
+    #[inline]
+    pub fn hit_from(&self, h: &OriginTerms, d: Vec3, t_max: f32) -> Option<crate::PolygonHit> {
+        let denom = h.denom(d.x, d.y, d.z);
+        let t = h.num / denom;
+        if !(t > 0.0 && t < t_max) {
+            return None;
+        }
+        let (u, v) = h.uv(t, d.x, d.y, d.z);
+        self.accepts(denom, false, u, v)
+            .then_some((t, u, v, denom < 0.0))
+    }
+}
