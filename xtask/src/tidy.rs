@@ -68,6 +68,19 @@ fn no_glob_reexports_should_panic_or_ignore() {
     }
 }
 
+/// The library crates, the pipeline last: the pipeline may depend on the others, the
+/// experiments on all of them.
+const LIBRARIES: [&str; 8] = [
+    "rad-core",
+    "rad-geometry",
+    "rad-accel",
+    "rad-hemisphere",
+    "rad-render",
+    "rad-estimator",
+    "rad-solver",
+    "rad-pipeline",
+];
+
 /// The arrows of ../shared/STYLE.md: a crate may depend on these workspace crates
 /// (normal dependencies). The binary sees the libraries only through the pipeline;
 /// the harness writes scene files through rad-geometry and results through the
@@ -85,31 +98,8 @@ fn allowed() -> BTreeMap<&'static str, &'static [&'static str]> {
         ),
         ("rad-solver", &["rad-core"][..]),
         ("rad-testkit", &["rad-core", "rad-geometry"][..]),
-        (
-            "rad-pipeline",
-            &[
-                "rad-core",
-                "rad-geometry",
-                "rad-accel",
-                "rad-hemisphere",
-                "rad-render",
-                "rad-estimator",
-                "rad-solver",
-            ][..],
-        ),
-        (
-            "rad-repro",
-            &[
-                "rad-core",
-                "rad-geometry",
-                "rad-accel",
-                "rad-hemisphere",
-                "rad-render",
-                "rad-estimator",
-                "rad-solver",
-                "rad-pipeline",
-            ][..],
-        ),
+        ("rad-pipeline", &LIBRARIES[..7]),
+        ("rad-repro", &LIBRARIES[..]),
         ("coherad", &["rad-pipeline"][..]),
         ("xtask", &["rad-geometry", "rad-pipeline", "rad-repro"][..]),
     ])
@@ -171,4 +161,152 @@ fn crate_dependencies_follow_the_arrows() {
             );
         }
     }
+}
+
+/// The longest a function in `crates/` may be, in lines (tests included).
+const MAX_FUNCTION_LINES: usize = 120;
+
+/// The Rust text of `src` with comments, strings and character literals blanked
+/// (lines kept), so that braces can be counted.
+fn code_only(src: &str) -> Vec<char> {
+    let c: Vec<char> = src.chars().collect();
+    let mut out = c.clone();
+    let blank = |out: &mut Vec<char>, k: usize| {
+        if out[k] != '\n' {
+            out[k] = ' ';
+        }
+    };
+    let mut k = 0;
+    while k < c.len() {
+        match c[k] {
+            '/' if c.get(k + 1) == Some(&'/') => {
+                while k < c.len() && c[k] != '\n' {
+                    blank(&mut out, k);
+                    k += 1;
+                }
+            }
+            '/' if c.get(k + 1) == Some(&'*') => {
+                while k < c.len() && !(c[k] == '*' && c.get(k + 1) == Some(&'/')) {
+                    blank(&mut out, k);
+                    k += 1;
+                }
+                blank(&mut out, k);
+                blank(&mut out, (k + 1).min(c.len() - 1));
+                k += 2;
+            }
+            'r' if matches!(c.get(k + 1), Some('"') | Some('#'))
+                && (k == 0 || !(c[k - 1].is_alphanumeric() || c[k - 1] == '_')) =>
+            {
+                let hashes = c[k + 1..].iter().take_while(|&&h| h == '#').count();
+                if c.get(k + 1 + hashes) != Some(&'"') {
+                    k += 1;
+                    continue;
+                }
+                let close: Vec<char> = std::iter::once('"')
+                    .chain(std::iter::repeat_n('#', hashes))
+                    .collect();
+                k += 2 + hashes;
+                while k < c.len() && !c[k..].starts_with(&close) {
+                    blank(&mut out, k);
+                    k += 1;
+                }
+                k += close.len();
+            }
+            '"' => {
+                k += 1;
+                while k < c.len() && c[k] != '"' {
+                    if c[k] == '\\' {
+                        blank(&mut out, k);
+                        k += 1;
+                    }
+                    blank(&mut out, k.min(c.len() - 1));
+                    k += 1;
+                }
+                k += 1;
+            }
+            // A character literal ('x', '\n', '\u{..}'), not a lifetime ('a).
+            '\'' if c.get(k + 1) == Some(&'\\') || c.get(k + 2) == Some(&'\'') => {
+                k += 1;
+                while k < c.len() && c[k] != '\'' {
+                    blank(&mut out, k);
+                    k += 1;
+                }
+                k += 1;
+            }
+            _ => k += 1,
+        }
+    }
+    out
+}
+
+/// (first line, lines, name) of every function with a body in `src`.
+fn function_lengths(src: &str) -> Vec<(usize, usize, String)> {
+    let code = code_only(src);
+    let text: String = code.iter().collect();
+    let line_of = |at: usize| text[..at].matches('\n').count() + 1;
+    let bytes = text.as_bytes();
+    let mut out = Vec::new();
+    let mut from = 0;
+    while let Some(off) = text[from..].find("fn ") {
+        let at = from + off;
+        from = at + 3;
+        if at > 0 && (bytes[at - 1].is_ascii_alphanumeric() || bytes[at - 1] == b'_') {
+            continue;
+        }
+        let name: String = text[at + 3..]
+            .chars()
+            .take_while(|ch| ch.is_alphanumeric() || *ch == '_')
+            .collect();
+        if name.is_empty() {
+            continue;
+        }
+        // The body: the first `{` before any `;` (a declaration has none).
+        let Some(open) = text[at..].find(['{', ';']).map(|o| at + o) else {
+            continue;
+        };
+        if bytes[open] == b';' {
+            continue;
+        }
+        let mut depth = 0;
+        let mut close = open;
+        for (k, &b) in bytes.iter().enumerate().skip(open) {
+            depth += i32::from(b == b'{') - i32::from(b == b'}');
+            if depth == 0 {
+                close = k;
+                break;
+            }
+        }
+        let first = line_of(at);
+        out.push((first, line_of(close) - first + 1, name));
+    }
+    out
+}
+
+#[test]
+fn function_lengths_are_measured_past_strings_and_comments() {
+    let src = "fn a() {\n    let s = \"}{{\";\n    // }\n    let c = '}';\n}\nfn b<'x>(v: &'x str) -> &'x str {\n    v\n}\nfn c();\n";
+    assert_eq!(
+        function_lengths(src),
+        vec![(1, 5, "a".to_string()), (6, 3, "b".to_string())]
+    );
+}
+
+#[test]
+fn no_function_is_over_120_lines() {
+    let mut files = Vec::new();
+    rust_files(&root().join("crates"), &mut files);
+    let mut long = Vec::new();
+    for f in files {
+        let text = std::fs::read_to_string(&f).unwrap();
+        for (line, n, name) in function_lengths(&text) {
+            if n > MAX_FUNCTION_LINES {
+                long.push(format!("{}:{line} {name}: {n} lines", f.display()));
+            }
+        }
+    }
+    assert!(
+        long.is_empty(),
+        "functions over {MAX_FUNCTION_LINES} lines (split them):\n{}",
+        long.join("\n")
+    );
 }

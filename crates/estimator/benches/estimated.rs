@@ -7,7 +7,7 @@ use rad_accel::{VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_estimator::{
     windows, Estimate, Estimator, EstimatorConfig, HoleFill, ImprovedEstimate, Mode, Reprojection,
-    SourceHemisphere, ThresholdTest,
+    SourceHemisphere,
 };
 use rad_geometry::scenes::{cube, loft};
 use rad_geometry::Scene;
@@ -20,10 +20,7 @@ fn config(mode: Mode) -> EstimatorConfig {
     EstimatorConfig {
         mode,
         fill: HoleFill::RingNeighbour,
-        reprojection: Reprojection::FirstOrder {
-            test: ThresholdTest::Lateral,
-            threshold: 10.0,
-        },
+        reprojection: Reprojection::LATERAL_10,
         boundary_lists: false,
         max_real_ray_share: 0.05,
         // coherad's default (`rad_pipeline::default_estimator`).

@@ -4,7 +4,6 @@ use rad_accel::{VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_estimator::{
     windows, Estimator, EstimatorConfig, HoleFill, Mode, Reprojection, SourceHemisphere,
-    ThresholdTest,
 };
 use rad_geometry::scenes::{cornell_box, cube, loft, CORNELL_PATCH_MM};
 use rad_geometry::Scene;
@@ -15,10 +14,7 @@ fn main() {
     let config = EstimatorConfig {
         mode: Mode::Improved,
         fill: HoleFill::RingNeighbour,
-        reprojection: Reprojection::FirstOrder {
-            test: ThresholdTest::Lateral,
-            threshold: 10.0,
-        },
+        reprojection: Reprojection::LATERAL_10,
         boundary_lists: false,
         // Never abandoned, so that every estimate's items are compared.
         max_real_ray_share: 1.0,

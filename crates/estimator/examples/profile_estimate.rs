@@ -6,7 +6,6 @@ use rad_accel::{VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_estimator::{
     windows, Estimator, EstimatorConfig, HoleFill, Mode, Reprojection, SourceHemisphere,
-    ThresholdTest,
 };
 use rad_geometry::scenes::{cube, loft};
 use rad_geometry::Scene;
@@ -26,10 +25,7 @@ fn main() {
     let config = EstimatorConfig {
         mode,
         fill: HoleFill::RingNeighbour,
-        reprojection: Reprojection::FirstOrder {
-            test: ThresholdTest::Lateral,
-            threshold: 10.0,
-        },
+        reprojection: Reprojection::LATERAL_10,
         boundary_lists: false,
         max_real_ray_share: std::env::var("SHARE").map_or(0.05, |s| s.parse().unwrap()),
         guess_stride: std::env::var("GUESS").map_or(3, |s| s.parse().unwrap()),

@@ -4,9 +4,7 @@
 //! (every STRIDE-th window, whole).
 
 use rad_accel::{VoxelGrid, VoxelGridConfig};
-use rad_estimator::{
-    estimate_rows, windows, EstimatorConfig, HoleFill, Mode, Reprojection, ThresholdTest,
-};
+use rad_estimator::{estimate_rows, windows, EstimatorConfig, HoleFill, Mode, Reprojection};
 use rad_geometry::scenes::{cube, loft};
 use rad_geometry::Scene;
 use rad_hemisphere::{Hemisphere, HemisphereConfig};
@@ -34,10 +32,7 @@ fn main() {
         let config = EstimatorConfig {
             mode,
             fill: HoleFill::RingNeighbour,
-            reprojection: Reprojection::FirstOrder {
-                test: ThresholdTest::Lateral,
-                threshold: 10.0,
-            },
+            reprojection: Reprojection::LATERAL_10,
             boundary_lists: false,
             max_real_ray_share: share,
             guess_stride: std::env::var("GUESS").map_or(3, |s| s.parse().unwrap()),

@@ -54,6 +54,16 @@ pub enum Reprojection {
     FirstOrder { test: ThresholdTest, threshold: f64 },
 }
 
+impl Reprojection {
+    /// First order where R sinθ > 10 |C1C2|, exact elsewhere: the measured choice of
+    /// coherad's defaults (as accurate as exact reprojection in the cube, where the
+    /// report's R / |C1C2| > 10 is not: see README).
+    pub const LATERAL_10: Reprojection = Reprojection::FirstOrder {
+        test: ThresholdTest::Lateral,
+        threshold: 10.0,
+    };
+}
+
 /// Settings of an estimation run.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EstimatorConfig {

@@ -2,16 +2,17 @@
 //! estimated ones elsewhere, in parallel and deterministically.
 
 use crate::config::{EstimatorConfig, Mode};
-use crate::faithful::{Estimate, Estimator};
+use crate::estimator::Estimator;
+use crate::faithful::Estimate;
 use crate::improved::{ImprovedEstimate, Outcome};
-use crate::schedule::windows;
+use crate::schedule::{windows, Window};
 use crate::source::SourceHemisphere;
 use crate::Error;
 use rad_core::PatchId;
 use rad_geometry::Scene;
 use rad_hemisphere::{Caster, Hemisphere, Row, RowAccumulator};
 use rayon::prelude::*;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 /// Where a row came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -72,91 +73,130 @@ pub fn estimate_rows<C: Caster>(
         }
         .into());
     }
-    let wanted: std::collections::HashSet<PatchId> = patches.iter().copied().collect();
+    let wanted: HashSet<PatchId> = patches.iter().copied().collect();
     let todo: Vec<_> = windows(scene)
         .into_iter()
         .filter(|w| wanted.contains(&w.centre) || w.estimated.iter().any(|p| wanted.contains(p)))
         .collect();
-    let est = Estimator::new(hemi);
+    let run = Run {
+        scene,
+        caster,
+        hemi,
+        config,
+        est: Estimator::new(hemi),
+        wanted,
+    };
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let per_window: Vec<Vec<(PatchId, EstimatedRow, u64, f64)>> = todo
+    let per_window: Vec<Vec<Made>> = todo
         .par_iter()
         .map_init(
-            || {
-                (
-                    caster.scratch(),
-                    RowAccumulator::new(n_patches),
-                    Estimate::default(),
-                    ImprovedEstimate::default(),
-                )
+            || WindowWork {
+                scratch: caster.scratch(),
+                acc: RowAccumulator::new(n_patches),
+                faithful: Estimate::default(),
+                improved: ImprovedEstimate::default(),
             },
-            |(scratch, acc, faithful, improved), w| {
-                let mut out = Vec::new();
-                let clock = std::time::Instant::now();
-                let src = SourceHemisphere::cast(
-                    scene,
-                    caster,
-                    hemi,
-                    w.centre,
-                    config.boundary_lists,
-                    scratch,
-                );
-                if wanted.contains(&w.centre) {
-                    let row = hemi.row_from_items(w.centre, src.items(), acc);
-                    out.push((
-                        w.centre,
-                        EstimatedRow {
-                            row,
-                            source: Source::Exact,
-                            holes: 0,
-                            real_rays: 0,
-                        },
-                        0,
-                        0.0,
-                    ));
-                }
-                let exact_seconds = clock.elapsed().as_secs_f64();
-                if let Some(first) = out.first_mut() {
-                    first.3 = exact_seconds;
-                }
-                for &p in w.estimated.iter().filter(|p| wanted.contains(p)) {
-                    let clock = std::time::Instant::now();
-                    let (items, holes, real_rays, tests, fallback) = match config.mode {
-                        Mode::Faithful => {
-                            est.faithful(scene, &src, p, config, faithful);
-                            (&faithful.items, faithful.holes, 0, 0, false)
-                        }
-                        Mode::Improved => {
-                            let e = &mut *improved;
-                            let outcome = est.improved(scene, caster, &src, p, config, scratch, e);
-                            let cast = outcome == Outcome::CastExactly;
-                            (&e.items, e.holes, e.real_rays, e.tests, cast)
-                        }
-                    };
-                    let row = hemi.row_from_items(p, items, acc);
-                    let source = if fallback {
-                        Source::ExactFallback { from: w.centre }
-                    } else {
-                        Source::Estimated { from: w.centre }
-                    };
-                    out.push((
-                        p,
-                        EstimatedRow {
-                            row,
-                            source,
-                            holes: holes as u32,
-                            real_rays: real_rays as u32,
-                        },
-                        tests as u64,
-                        clock.elapsed().as_secs_f64(),
-                    ));
-                }
+            |work, w| {
+                let out = run.window(w, work);
                 let rows = out.len();
                 progress(done.fetch_add(rows, std::sync::atomic::Ordering::Relaxed) + rows);
                 out
             },
         )
         .collect();
+    let (by_patch, stats) = tally(per_window);
+    let rows = patches.iter().map(|p| by_patch[p].clone()).collect();
+    Ok((rows, stats))
+}
+
+/// A row made, with its polygon tests and thread-seconds.
+type Made = (PatchId, EstimatedRow, u64, f64);
+
+/// What every window of a run shares.
+struct Run<'a, C> {
+    scene: &'a Scene,
+    caster: &'a C,
+    hemi: &'a Hemisphere,
+    config: &'a EstimatorConfig,
+    est: Estimator<'a>,
+    wanted: HashSet<PatchId>,
+}
+
+/// A thread's working memory.
+struct WindowWork<S> {
+    scratch: S,
+    acc: RowAccumulator,
+    faithful: Estimate,
+    improved: ImprovedEstimate,
+}
+
+impl<C: Caster> Run<'_, C> {
+    /// The rows wanted of window `w`: its centre's, cast exactly, then its estimates.
+    fn window(&self, w: &Window, work: &mut WindowWork<C::Scratch>) -> Vec<Made> {
+        let (scene, hemi, config) = (self.scene, self.hemi, self.config);
+        let mut out = Vec::new();
+        let clock = std::time::Instant::now();
+        let src = SourceHemisphere::cast(
+            scene,
+            self.caster,
+            hemi,
+            w.centre,
+            config.boundary_lists,
+            &mut work.scratch,
+        );
+        if self.wanted.contains(&w.centre) {
+            let row = hemi.row_from_items(w.centre, src.items(), &mut work.acc);
+            let exact = EstimatedRow {
+                row,
+                source: Source::Exact,
+                holes: 0,
+                real_rays: 0,
+            };
+            out.push((w.centre, exact, 0, clock.elapsed().as_secs_f64()));
+        }
+        for &p in w.estimated.iter().filter(|p| self.wanted.contains(p)) {
+            let clock = std::time::Instant::now();
+            let (items, holes, real_rays, tests, fallback) = match config.mode {
+                Mode::Faithful => {
+                    let e = &mut work.faithful;
+                    self.est.faithful(scene, &src, p, config, e);
+                    (&e.items, e.holes, 0, 0, false)
+                }
+                Mode::Improved => {
+                    let e = &mut work.improved;
+                    let outcome = self.est.improved(
+                        scene,
+                        self.caster,
+                        &src,
+                        p,
+                        config,
+                        &mut work.scratch,
+                        e,
+                    );
+                    let cast = outcome == Outcome::CastExactly;
+                    (&e.items, e.holes, e.real_rays, e.tests, cast)
+                }
+            };
+            let row = hemi.row_from_items(p, items, &mut work.acc);
+            let source = if fallback {
+                Source::ExactFallback { from: w.centre }
+            } else {
+                Source::Estimated { from: w.centre }
+            };
+            let made = EstimatedRow {
+                row,
+                source,
+                holes: holes as u32,
+                real_rays: real_rays as u32,
+            };
+            out.push((p, made, tests as u64, clock.elapsed().as_secs_f64()));
+        }
+        out
+    }
+}
+
+/// The rows by patch, and the run's counts.
+fn tally(per_window: Vec<Vec<Made>>) -> (HashMap<PatchId, EstimatedRow>, EstimateStats) {
     let mut stats = EstimateStats::default();
     let mut by_patch: HashMap<PatchId, EstimatedRow> = HashMap::new();
     for (p, r, tests, seconds) in per_window.into_iter().flatten() {
@@ -179,6 +219,5 @@ pub fn estimate_rows<C: Caster>(
         stats.polygon_tests += tests;
         by_patch.insert(p, r);
     }
-    let rows = patches.iter().map(|p| by_patch[p].clone()).collect();
-    Ok((rows, stats))
+    (by_patch, stats)
 }

@@ -1,12 +1,16 @@
 //! Visibility estimation: reproject the polygon each cell sees, then resolve every cell
 //! of H2 with its own ray against the polygons guessed for it and its 8 neighbours.
 
+use crate::cell_trig::CellTrig;
 use crate::config::EstimatorConfig;
-use crate::faithful::{motion, splat, Estimator, Points, ZBuffer};
+use crate::estimator::{motion, with_thread_buffer, Estimator};
+use crate::holes::{fill_runs, maximal_runs};
 use crate::source::SourceHemisphere;
+use crate::splat::{splat, Points, Splat};
+use crate::zbuffer::ZBuffer;
 use rad_core::{Hit, PatchId, PolygonId, BACK, ESCAPED, HOLE, NO_POLYGON};
 use rad_geometry::Scene;
-use rad_hemisphere::{Caster, ItemBuffer, NearestHits};
+use rad_hemisphere::{Caster, Hemisphere, ItemBuffer, NearestHits};
 
 /// What became of an improved estimate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -78,22 +82,8 @@ impl Estimator<'_> {
         scratch: &mut C::Scratch,
         out: &mut ImprovedEstimate,
     ) -> Outcome {
-        // (A fresh buffer if this thread's is in use: a caster that ran another estimate
-        // on this thread from inside `closest_hits`.)
-        let outcome = WORK.with(|cell| match cell.try_borrow_mut() {
-            Ok(mut work) => {
-                self.improved_with(scene, caster, src, to, config, scratch, &mut work, out)
-            }
-            Err(_) => self.improved_with(
-                scene,
-                caster,
-                src,
-                to,
-                config,
-                scratch,
-                &mut Work::default(),
-                out,
-            ),
+        let outcome = with_thread_buffer(&WORK, |work| {
+            self.improved_with(scene, caster, src, to, config, scratch, work, out)
         });
         if outcome == Outcome::CastExactly {
             caster.item_buffer(scene, self.hemi, to, scratch, &mut out.items);
@@ -113,23 +103,69 @@ impl Estimator<'_> {
         w: &mut Work,
         out: &mut ImprovedEstimate,
     ) -> Outcome {
-        let hemi = self.hemi;
-        let m = motion(scene, src.patch(), to);
         let target = &scene.patches()[to as usize];
-        let own = target.polygon;
-        let polygons = scene.polygons();
-        let o = target.center;
+        let (own, o) = (target.polygon, target.center);
         // The guess grid: the hemisphere's, or coarser (see `guess_stride`).
         let trig = self.trig_strided(config.guess_stride as usize);
         let stride = trig.stride;
-        let (n_theta, n_phi) = (trig.n_theta, trig.n_phi);
-        let fine_n_phi = hemi.n_phi();
-        // 1. Splat polygons (z-buffered). Guesses need not be exact: a cell tests its
-        // neighbours' guesses too, so the near points' cells come from the polynomial
-        // angles without edge corrections (off by one cell within about 1e-6 rad of an
-        // edge).
+        // 1. Splat polygons (z-buffered); 2. runs of guesses ring by ring.
+        let ring_values = self.splat_guesses(scene, src, to, config, trig, w);
+        out.holes = w.guess_runs(ring_values, own, trig.n_theta, trig.n_phi) * stride * stride;
+        // 3. Resolve each cell against the guesses around it.
+        out.tests = w.resolve(scene, self.hemi, own, o, trig);
+        // 4. The nearest hit if it is a front one (runs of cells with one polygon looked
+        // up together); otherwise (a back face nearest, or no guess hit) a real ray.
+        let polygons = scene.polygons();
+        let n_cells = self.hemi.n_cells();
+        // (`items` writes every cell, the real rays' below: no need to clear.)
+        let (patch, dist) = (&mut out.items.patch, &mut out.items.dist);
+        patch.resize(n_cells, ESCAPED);
+        dist.resize(n_cells, f32::INFINITY);
+        let real = &mut w.real;
+        real.clear();
+        let terms_of = &w.terms_of;
+        let front = |p: u32| terms_of[p as usize].num < 0.0;
+        w.hits.items(polygons, front, patch, dist, |cells, _, _| {
+            real.extend(cells)
+        });
+        out.real_rays = real.len();
+        if real.len() as f64 > config.max_real_ray_share * n_cells as f64 {
+            return Outcome::CastExactly;
+        }
+        if !real.is_empty() {
+            w.dirs.clear();
+            w.dirs.extend(real.iter().map(|&c| w.hits.direction(c)));
+            caster.closest_hits(scene, o, own, &w.dirs, scratch, &mut w.cast);
+            for (&c, h) in real.iter().zip(&w.cast) {
+                (patch[c], dist[c]) = match h {
+                    Some(h) if h.front => (polygons[h.polygon as usize].patch_at(h.u, h.v), h.t),
+                    Some(h) => (BACK, h.t),
+                    None => (ESCAPED, f32::INFINITY),
+                };
+            }
+        }
+        Outcome::Estimated
+    }
+
+    /// Step 1: splats H1's polygons onto the guess grid `trig` into `w.guess`
+    /// (z-buffered; coarse grids' other polygons into `w.extras`, by ring); returns the
+    /// polygons of the points splatted, by guess cell. Guesses need not be exact: a cell
+    /// tests its neighbours' guesses too, so the near points' cells come from the
+    /// polynomial angles without edge corrections (off by one cell within about 1e-6
+    /// rad of an edge).
+    fn splat_guesses<'s>(
+        &self,
+        scene: &Scene,
+        src: &'s SourceHemisphere,
+        to: PatchId,
+        config: &EstimatorConfig,
+        trig: &CellTrig,
+        w: &mut Work,
+    ) -> &'s [PolygonId] {
+        let hemi = self.hemi;
+        let m = motion(scene, src.patch(), to);
         let values = src.polygons(scene);
-        let points = if stride == 1 {
+        let points = if trig.stride == 1 {
             Points {
                 dist: &src.items().dist,
                 values,
@@ -138,7 +174,7 @@ impl Estimator<'_> {
                 ring_max: src.ring_max(hemi),
             }
         } else {
-            let c = src.coarse(scene, hemi, stride);
+            let c = src.coarse(scene, hemi, trig.stride);
             Points {
                 dist: &c.dist,
                 values: &c.polygons,
@@ -148,13 +184,16 @@ impl Estimator<'_> {
             }
         };
         let ring_values = points.values;
-        splat(
+        let job = Splat {
             trig,
             src,
-            &m,
+            m: &m,
             config,
-            true,
+            rough: true,
             points,
+        };
+        splat(
+            job,
             |id| SourceHemisphere::polygon_of(scene, id),
             &mut w.guess,
             None,
@@ -163,9 +202,25 @@ impl Estimator<'_> {
         );
         // Extra guesses (coarse grids): by ring.
         w.extras.sort_unstable();
-        // 2. Runs of guesses ring by ring, holes filled as `HoleFill::RingNeighbour`
-        // fills them (each hole takes the nearer written cell of its ring, the lower φ
-        // on ties; H1's polygon where the whole ring is a hole).
+        ring_values
+    }
+}
+
+impl Work {
+    /// Step 2: the runs of usable guesses (not `own`, not a hole, not nothing) ring by
+    /// ring of the guess grid (`n_theta` × `n_phi`), holes filled as
+    /// `HoleFill::RingNeighbour` fills them (each hole takes the nearer written cell of
+    /// its ring, the lower φ on ties; H1's polygon, `ring_values`, where the whole ring
+    /// is a hole), grown by a cell each way, into `runs` and `ring_runs`; returns the
+    /// number of guess cells that were holes.
+    fn guess_runs(
+        &mut self,
+        ring_values: &[PolygonId],
+        own: PolygonId,
+        n_theta: usize,
+        n_phi: usize,
+    ) -> usize {
+        let w = self;
         let usable = |g: u32| g != NO_POLYGON && g != HOLE && g != own;
         let n = n_phi as i64;
         // A run grown by a cell each way, as a span within a turn: (key, end).
@@ -223,14 +278,27 @@ impl Estimator<'_> {
             w.runs[first..].sort_unstable_by_key(|s| s.0);
             w.ring_runs.push(w.runs.len());
         }
-        out.holes = holes * stride * stride;
-        // 3. Resolve each cell with its own ray, against the polygons guessed for its
-        // guess cell and that cell's 8 neighbours: polygon by polygon over spans of a
-        // ring (vectorised, the voxel grid's arithmetic), each polygon tested on the
-        // cells it is guessed for, grown by one guess cell each way (so on every cell
-        // that has it among its 3 × 3 guesses), in increasing id order so that ties go
-        // to the lower id, as in the grid. Every polygon's terms for this origin are
-        // computed once.
+        holes
+    }
+
+    /// Step 3: resolves each cell of `hemi` from `o` (on polygon `own`) with its own
+    /// ray, against the polygons guessed for its guess cell (of `trig`) and that cell's
+    /// 8 neighbours: polygon by polygon over spans of a ring (vectorised, the voxel
+    /// grid's arithmetic), each polygon tested on the cells it is guessed for, grown by
+    /// one guess cell each way (so on every cell that has it among its 3 × 3 guesses),
+    /// in increasing id order so that ties go to the lower id, as in the grid. Every
+    /// polygon's terms for this origin are computed once. Returns the tests made.
+    fn resolve(
+        &mut self,
+        scene: &Scene,
+        hemi: &Hemisphere,
+        own: PolygonId,
+        o: glam::Vec3,
+        trig: &CellTrig,
+    ) -> usize {
+        let w = self;
+        let polygons = scene.polygons();
+        let (n_theta, stride, fine_n_phi) = (trig.n_theta, trig.stride, hemi.n_phi());
         w.terms_of.clear();
         w.terms_of.extend(polygons.iter().map(|p| p.terms().at(o)));
         let hits = &mut w.hits;
@@ -283,136 +351,6 @@ impl Estimator<'_> {
                 }
             }
         }
-        out.tests = (hits.tests - tests_before) as usize;
-        // 4. The nearest hit if it is a front one (runs of cells with one polygon looked
-        // up together); otherwise (a back face nearest, or no guess hit) a real ray.
-        let n_cells = hemi.n_cells();
-        // (`items` writes every cell, the real rays' below: no need to clear.)
-        let (patch, dist) = (&mut out.items.patch, &mut out.items.dist);
-        patch.resize(n_cells, ESCAPED);
-        dist.resize(n_cells, f32::INFINITY);
-        let real = &mut w.real;
-        real.clear();
-        let terms_of = &w.terms_of;
-        let front = |p: u32| terms_of[p as usize].num < 0.0;
-        hits.items(polygons, front, patch, dist, |cells, _, _| {
-            real.extend(cells)
-        });
-        out.real_rays = real.len();
-        if real.len() as f64 > config.max_real_ray_share * n_cells as f64 {
-            return Outcome::CastExactly;
-        }
-        if !real.is_empty() {
-            w.dirs.clear();
-            w.dirs.extend(real.iter().map(|&c| hits.direction(c)));
-            caster.closest_hits(scene, o, own, &w.dirs, scratch, &mut w.cast);
-            for (&c, h) in real.iter().zip(&w.cast) {
-                (patch[c], dist[c]) = match h {
-                    Some(h) if h.front => (polygons[h.polygon as usize].patch_at(h.u, h.v), h.t),
-                    Some(h) => (BACK, h.t),
-                    None => (ESCAPED, f32::INFINITY),
-                };
-            }
-        }
-        Outcome::Estimated
-    }
-}
-
-/// Fills the holes of a ring of `n` cells given by its maximal runs `raw` (at least
-/// one hole, at least one written cell) as `HoleFill::RingNeighbour` does, and gives
-/// each written run grown over the holes it takes to `emit`: a run takes the nearer half
-/// of the holes on each side (of L holes before it, the ⌊L / 2⌋ nearest; of R after
-/// it, the ⌈R / 2⌉: the lower φ wins ties). Runs are unwrapped: they may leave [0, n).
-fn fill_runs(raw: &mut Vec<(u32, i64, i64)>, n: i64, mut emit: impl FnMut((u32, i64, i64))) {
-    // Join the runs at each end of the ring if they hold the same value.
-    if raw.len() > 1 && raw[0].0 == raw[raw.len() - 1].0 {
-        let first = raw.remove(0);
-        let last = raw.len() - 1;
-        raw[last].2 = n + first.2;
-    }
-    let k = raw.len();
-    let holes = |r: &(u32, i64, i64)| if r.0 == HOLE { r.2 - r.1 } else { 0 };
-    for t in 0..k {
-        let (g, a, b) = raw[t];
-        if g != HOLE {
-            let before = holes(&raw[(t + k - 1) % k]);
-            let after = holes(&raw[(t + 1) % k]);
-            emit((g, a - before / 2, b + (after + 1) / 2));
-        }
-    }
-}
-
-/// The maximal runs of equal values of `ring`: (value, first, end).
-fn maximal_runs(ring: &[u32], out: &mut Vec<(u32, i64, i64)>) {
-    out.clear();
-    let mut j = 0;
-    while j < ring.len() {
-        let g = ring[j];
-        let mut e = j + 1;
-        while e < ring.len() && ring[e] == g {
-            e += 1;
-        }
-        out.push((g, j as i64, e as i64));
-        j = e;
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::{fill_runs, maximal_runs, HOLE};
-    use crate::config::HoleFill;
-    use crate::faithful::fill_holes;
-    use rad_hemisphere::{Hemisphere, HemisphereConfig};
-
-    /// Filling by runs gives, cell for cell, what `fill_holes` gives, on rings of every
-    /// pattern of holes (wrapping ones included).
-    #[test]
-    fn filled_runs_match_fill_holes() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
-        for case in 0..3000 {
-            // Short rings, and rings across the hole filling's 64-cell masks.
-            let n = match case % 4 {
-                0 => [63, 64, 65, 127, 128, 130][(next() % 6) as usize],
-                _ => 1 + (next() % 40) as usize,
-            };
-            let hemi = Hemisphere::new(HemisphereConfig::exact(1, n as u32)).unwrap();
-            let hole_share = next() % 100;
-            let mut ring: Vec<u32> = (0..n)
-                .map(|_| {
-                    if next() % 100 < hole_share {
-                        HOLE
-                    } else {
-                        (next() % 3) as u32
-                    }
-                })
-                .collect();
-            let written = ring.iter().filter(|&&g| g != HOLE).count();
-            if written == 0 || written == n {
-                continue;
-            }
-            let mut raw = Vec::new();
-            maximal_runs(&ring, &mut raw);
-            let mut got = vec![HOLE; n];
-            fill_runs(&mut raw, n as i64, |(g, a, b)| {
-                for c in a..b {
-                    let c = c.rem_euclid(n as i64) as usize;
-                    assert_eq!(got[c], HOLE, "case {case}: runs overlap at {c}");
-                    got[c] = g;
-                }
-            });
-            fill_holes(
-                &hemi,
-                &mut ring,
-                HoleFill::RingNeighbour,
-                |_| unreachable!(),
-            );
-            assert_eq!(got, ring, "case {case}");
-        }
+        (hits.tests - tests_before) as usize
     }
 }

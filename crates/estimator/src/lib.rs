@@ -10,17 +10,23 @@
 //!   against the polygons guessed for it and its 8 neighbours.
 //! - [`windows`]: the 3 × 3 window schedule of §3.6; [`estimate_rows`] runs it all.
 
+mod cell_trig;
 mod config;
 mod driver;
+mod estimator;
 mod faithful;
+mod holes;
 mod improved;
 mod reproject;
 mod schedule;
 mod source;
+mod splat;
+mod zbuffer;
 
 pub use config::{EstimatorConfig, HoleFill, Mode, Reprojection, ThresholdTest, MAX_GUESS_STRIDE};
 pub use driver::{estimate_rows, EstimateStats, EstimatedRow, Source};
-pub use faithful::{Estimate, Estimator};
+pub use estimator::Estimator;
+pub use faithful::Estimate;
 pub use improved::{ImprovedEstimate, Outcome};
 pub use reproject::{reproject_exact, reproject_first_order, Motion, Reprojected};
 pub use schedule::{windows, Window};
@@ -40,4 +46,13 @@ pub enum Error {
     },
     #[error("patches {from} and {to} are not on the same polygon: a hemisphere is estimated only from a neighbour on its own polygon")]
     NotSamePolygon { from: u32, to: u32 },
+}
+
+/// A small deterministic generator (xorshift) for the unit tests: uniform in [0, 1).
+#[cfg(test)]
+pub(crate) fn test_rng(seed: &mut u64) -> f64 {
+    *seed ^= *seed << 13;
+    *seed ^= *seed >> 7;
+    *seed ^= *seed << 17;
+    (*seed >> 11) as f64 / (1u64 << 53) as f64
 }

@@ -92,78 +92,7 @@ impl Polygon {
         first_patch: PatchId,
     ) -> Result<Built, PolygonProblem> {
         let n_vertices = vertices.len();
-        if n_vertices < 3 {
-            return Err(PolygonProblem::TooFewVertices { count: n_vertices });
-        }
-        if let Some((vertex, p)) = vertices.iter().enumerate().find(|(_, p)| !p.is_finite()) {
-            return Err(PolygonProblem::NonFinite {
-                vertex,
-                value: p.to_array(),
-            });
-        }
-        let pts: Vec<DVec3> = vertices.iter().map(|p| p.as_dvec3()).collect();
-        // Newell's normal: robust for any planar polygon; its length is twice the area.
-        let mut newell = DVec3::ZERO;
-        for k in 0..n_vertices {
-            newell += pts[k].cross(pts[(k + 1) % n_vertices]);
-        }
-        let diameter = pts
-            .iter()
-            .flat_map(|a| pts.iter().map(move |b| (*a - *b).length()))
-            .fold(0.0, f64::max);
-        let area = 0.5 * newell.length();
-        let min_edge = (0..n_vertices)
-            .map(|k| (pts[(k + 1) % n_vertices] - pts[k]).length())
-            .fold(f64::INFINITY, f64::min);
-        if !(area > 1e-12 * diameter * diameter) || diameter == 0.0 || !(min_edge > 1e-9 * diameter)
-        {
-            return Err(PolygonProblem::Degenerate { area });
-        }
-        let normal = newell / newell.length();
-        let centroid = pts.iter().copied().sum::<DVec3>() / n_vertices as f64;
-        let tolerance = PLANARITY_TOLERANCE * diameter;
-        for (vertex, p) in pts.iter().enumerate() {
-            let deviation = (*p - centroid).dot(normal).abs();
-            if deviation > tolerance {
-                return Err(PolygonProblem::NonPlanar {
-                    vertex,
-                    deviation,
-                    tolerance,
-                    rel_tolerance: PLANARITY_TOLERANCE,
-                });
-            }
-        }
-        // Convex, with every turn the same way as the normal (collinear vertices allowed),
-        // and winding once: every vertex on the inner side of every edge (a star, whose
-        // turns all agree, fails this).
-        for k in 0..n_vertices {
-            let a = pts[k];
-            let b = pts[(k + 1) % n_vertices];
-            let c = pts[(k + 2) % n_vertices];
-            let turn = (b - a).cross(c - b).dot(normal);
-            if turn < -1e-9 * diameter * diameter {
-                return Err(PolygonProblem::NonConvex {
-                    vertex: (k + 1) % n_vertices,
-                });
-            }
-            let inward = normal.cross(b - a);
-            if let Some(vertex) =
-                (0..n_vertices).find(|&m| (pts[m] - a).dot(inward) < -1e-9 * diameter * diameter)
-            {
-                return Err(PolygonProblem::NonConvex { vertex });
-            }
-        }
-        if nu == 0 || nv == 0 {
-            return Err(PolygonProblem::ZeroPatchGrid { nu, nv });
-        }
-        if nu.saturating_mul(nv) > MAX_CELLS_PER_POLYGON {
-            return Err(PolygonProblem::PatchGridTooLarge {
-                nu,
-                nv,
-                limit: MAX_CELLS_PER_POLYGON,
-            });
-        }
-
+        let (pts, normal, diameter, area) = validated(&vertices, nu, nv)?;
         let origin = pts[0];
         let e_u = pts[1] - origin;
         let e_v = pts[n_vertices - 1] - origin;
@@ -201,82 +130,20 @@ impl Polygon {
             .map(|p| p.abs().max_element())
             .fold(0.0, f64::max);
         let eps = (4e-6 * (max_coord + diameter)) as f32;
-        let off_plane = tolerance as f32;
+        let off_plane = (PLANARITY_TOLERANCE * diameter) as f32;
 
         // Patch texture.
         let (nu32, nv32) = (nu as u32, nv as u32);
-        // The grid spans the polygon's (u, v) bounding box: [0, 1]² for a parallelogram
-        // (or any polygon whose vertices lie in it), wider for e.g. a trapezoid.
-        let mut uv_box = [0.0f64, 1.0, 0.0, 1.0];
-        for [u, v] in &uv_vertices {
-            uv_box = [
-                uv_box[0].min(*u),
-                uv_box[1].max(*u),
-                uv_box[2].min(*v),
-                uv_box[3].max(*v),
-            ];
-        }
-        if parallelogram {
-            uv_box = [0.0, 1.0, 0.0, 1.0];
-        }
-        let (cu, cv) = (
-            (uv_box[1] - uv_box[0]) / nu as f64,
-            (uv_box[3] - uv_box[2]) / nv as f64,
-        );
-        let cell_full = cu * cv;
-        let mut cell_patch = vec![PatchId::MAX; (nu * nv) as usize];
-        let mut patches = Vec::new();
+        let frame = TextureFrame {
+            origin,
+            e_u,
+            e_v,
+            par_area,
+            normal,
+        };
+        let (cell_patch, patches, uv_box, cu, cv) =
+            patch_texture(&frame, &uv_vertices, parallelogram, nu32, nv32, first_patch);
         let normal_f = normal.as_vec3();
-        let world = |uv: [f64; 2]| (origin + e_u * uv[0] + e_v * uv[1]).as_vec3();
-        let mut shapes: Vec<Option<Vec<[f64; 2]>>> = vec![None; (nu * nv) as usize];
-        for j in 0..nv32 {
-            for i in 0..nu32 {
-                let (u0, u1) = (uv_box[0] + i as f64 * cu, uv_box[0] + (i + 1) as f64 * cu);
-                let (v0, v1) = (uv_box[2] + j as f64 * cv, uv_box[2] + (j + 1) as f64 * cv);
-                let square = vec![[u0, v0], [u1, v0], [u1, v1], [u0, v1]];
-                let cell = if parallelogram {
-                    square
-                } else {
-                    clip_convex(&square, &uv_vertices)
-                };
-                let idx = (j * nu32 + i) as usize;
-                let (a, _) = polygon_area_centroid(&cell);
-                if a > MIN_CELL_FRACTION * cell_full {
-                    shapes[idx] = Some(cell);
-                }
-            }
-        }
-        for j in 0..nv32 {
-            for i in 0..nu32 {
-                let idx = (j * nu32 + i) as usize;
-                let Some(cell) = &shapes[idx] else { continue };
-                let (a_uv, c_uv) = polygon_area_centroid(cell);
-                let has = |ii: i64, jj: i64| {
-                    ii >= 0
-                        && jj >= 0
-                        && ii < nu as i64
-                        && jj < nv as i64
-                        && shapes[(jj as u64 * nu + ii as u64) as usize].is_some()
-                };
-                let (ii, jj) = (i as i64, j as i64);
-                let on_boundary = a_uv < cell_full * (1.0 - 1e-9)
-                    || !has(ii - 1, jj)
-                    || !has(ii + 1, jj)
-                    || !has(ii, jj - 1)
-                    || !has(ii, jj + 1);
-                cell_patch[idx] = first_patch + patches.len() as PatchId;
-                patches.push(Patch {
-                    polygon: 0, // set by the scene
-                    cell: [i, j],
-                    center: world(c_uv),
-                    normal: normal_f,
-                    corners: cell.iter().map(|&p| world(p)).collect(),
-                    area: a_uv * par_area,
-                    on_boundary,
-                });
-            }
-        }
-        fill_empty_cells(&mut cell_patch, nu32, nv32);
 
         let e_u_f = e_u.as_vec3();
         let polygon = Polygon {
@@ -543,6 +410,192 @@ impl Polygon {
 }
 
 /// Gives each patch-less cell the patch of the nearest non-empty cell of its row (or of
+/// Checks `vertices` and the grid size: (the vertices in f64, the unit normal, the
+/// diameter, the area).
+fn validated(
+    vertices: &[Vec3],
+    nu: u64,
+    nv: u64,
+) -> Result<(Vec<DVec3>, DVec3, f64, f64), PolygonProblem> {
+    let n_vertices = vertices.len();
+    if n_vertices < 3 {
+        return Err(PolygonProblem::TooFewVertices { count: n_vertices });
+    }
+    if let Some((vertex, p)) = vertices.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+        return Err(PolygonProblem::NonFinite {
+            vertex,
+            value: p.to_array(),
+        });
+    }
+    let pts: Vec<DVec3> = vertices.iter().map(|p| p.as_dvec3()).collect();
+    // Newell's normal: robust for any planar polygon; its length is twice the area.
+    let mut newell = DVec3::ZERO;
+    for k in 0..n_vertices {
+        newell += pts[k].cross(pts[(k + 1) % n_vertices]);
+    }
+    let diameter = pts
+        .iter()
+        .flat_map(|a| pts.iter().map(move |b| (*a - *b).length()))
+        .fold(0.0, f64::max);
+    let area = 0.5 * newell.length();
+    let min_edge = (0..n_vertices)
+        .map(|k| (pts[(k + 1) % n_vertices] - pts[k]).length())
+        .fold(f64::INFINITY, f64::min);
+    if !(area > 1e-12 * diameter * diameter) || diameter == 0.0 || !(min_edge > 1e-9 * diameter) {
+        return Err(PolygonProblem::Degenerate { area });
+    }
+    let normal = newell / newell.length();
+    let centroid = pts.iter().copied().sum::<DVec3>() / n_vertices as f64;
+    let tolerance = PLANARITY_TOLERANCE * diameter;
+    for (vertex, p) in pts.iter().enumerate() {
+        let deviation = (*p - centroid).dot(normal).abs();
+        if deviation > tolerance {
+            return Err(PolygonProblem::NonPlanar {
+                vertex,
+                deviation,
+                tolerance,
+                rel_tolerance: PLANARITY_TOLERANCE,
+            });
+        }
+    }
+    // Convex, with every turn the same way as the normal (collinear vertices allowed),
+    // and winding once: every vertex on the inner side of every edge (a star, whose
+    // turns all agree, fails this).
+    for k in 0..n_vertices {
+        let a = pts[k];
+        let b = pts[(k + 1) % n_vertices];
+        let c = pts[(k + 2) % n_vertices];
+        let turn = (b - a).cross(c - b).dot(normal);
+        if turn < -1e-9 * diameter * diameter {
+            return Err(PolygonProblem::NonConvex {
+                vertex: (k + 1) % n_vertices,
+            });
+        }
+        let inward = normal.cross(b - a);
+        if let Some(vertex) =
+            (0..n_vertices).find(|&m| (pts[m] - a).dot(inward) < -1e-9 * diameter * diameter)
+        {
+            return Err(PolygonProblem::NonConvex { vertex });
+        }
+    }
+    if nu == 0 || nv == 0 {
+        return Err(PolygonProblem::ZeroPatchGrid { nu, nv });
+    }
+    if nu.saturating_mul(nv) > MAX_CELLS_PER_POLYGON {
+        return Err(PolygonProblem::PatchGridTooLarge {
+            nu,
+            nv,
+            limit: MAX_CELLS_PER_POLYGON,
+        });
+    }
+    Ok((pts, normal, diameter, area))
+}
+
+/// Where a polygon's patch texture lies: vertex 0, the edges to vertices 1 and last,
+/// the parallelogram's area and the unit normal.
+struct TextureFrame {
+    origin: DVec3,
+    e_u: DVec3,
+    e_v: DVec3,
+    par_area: f64,
+    normal: DVec3,
+}
+
+/// The `nu × nv` patch texture over the (u, v) box of `uv_vertices` (clipped to the
+/// polygon unless a parallelogram), its patches numbered from `first_patch`: (cell →
+/// patch, the patches, the (u, v) box, the cell sizes).
+#[allow(clippy::type_complexity)]
+fn patch_texture(
+    frame: &TextureFrame,
+    uv_vertices: &[[f64; 2]],
+    parallelogram: bool,
+    nu32: u32,
+    nv32: u32,
+    first_patch: PatchId,
+) -> (Vec<PatchId>, Vec<Patch>, [f64; 4], f64, f64) {
+    let TextureFrame {
+        origin,
+        e_u,
+        e_v,
+        par_area,
+        normal,
+    } = *frame;
+    let (nu, nv) = (u64::from(nu32), u64::from(nv32));
+    // The grid spans the polygon's (u, v) bounding box: [0, 1]² for a parallelogram
+    // (or any polygon whose vertices lie in it), wider for e.g. a trapezoid.
+    let mut uv_box = [0.0f64, 1.0, 0.0, 1.0];
+    for [u, v] in uv_vertices {
+        uv_box = [
+            uv_box[0].min(*u),
+            uv_box[1].max(*u),
+            uv_box[2].min(*v),
+            uv_box[3].max(*v),
+        ];
+    }
+    if parallelogram {
+        uv_box = [0.0, 1.0, 0.0, 1.0];
+    }
+    let (cu, cv) = (
+        (uv_box[1] - uv_box[0]) / nu as f64,
+        (uv_box[3] - uv_box[2]) / nv as f64,
+    );
+    let cell_full = cu * cv;
+    let mut cell_patch = vec![PatchId::MAX; (nu * nv) as usize];
+    let mut patches = Vec::new();
+    let normal_f = normal.as_vec3();
+    let world = |uv: [f64; 2]| (origin + e_u * uv[0] + e_v * uv[1]).as_vec3();
+    let mut shapes: Vec<Option<Vec<[f64; 2]>>> = vec![None; (nu * nv) as usize];
+    for j in 0..nv32 {
+        for i in 0..nu32 {
+            let (u0, u1) = (uv_box[0] + i as f64 * cu, uv_box[0] + (i + 1) as f64 * cu);
+            let (v0, v1) = (uv_box[2] + j as f64 * cv, uv_box[2] + (j + 1) as f64 * cv);
+            let square = vec![[u0, v0], [u1, v0], [u1, v1], [u0, v1]];
+            let cell = if parallelogram {
+                square
+            } else {
+                clip_convex(&square, &uv_vertices)
+            };
+            let idx = (j * nu32 + i) as usize;
+            let (a, _) = polygon_area_centroid(&cell);
+            if a > MIN_CELL_FRACTION * cell_full {
+                shapes[idx] = Some(cell);
+            }
+        }
+    }
+    for j in 0..nv32 {
+        for i in 0..nu32 {
+            let idx = (j * nu32 + i) as usize;
+            let Some(cell) = &shapes[idx] else { continue };
+            let (a_uv, c_uv) = polygon_area_centroid(cell);
+            let has = |ii: i64, jj: i64| {
+                ii >= 0
+                    && jj >= 0
+                    && ii < nu as i64
+                    && jj < nv as i64
+                    && shapes[(jj as u64 * nu + ii as u64) as usize].is_some()
+            };
+            let (ii, jj) = (i as i64, j as i64);
+            let on_boundary = a_uv < cell_full * (1.0 - 1e-9)
+                || !has(ii - 1, jj)
+                || !has(ii + 1, jj)
+                || !has(ii, jj - 1)
+                || !has(ii, jj + 1);
+            cell_patch[idx] = first_patch + patches.len() as PatchId;
+            patches.push(Patch {
+                polygon: 0, // set by the scene
+                cell: [i, j],
+                center: world(c_uv),
+                normal: normal_f,
+                corners: cell.iter().map(|&p| world(p)).collect(),
+                area: a_uv * par_area,
+                on_boundary,
+            });
+        }
+    }
+    fill_empty_cells(&mut cell_patch, nu32, nv32);
+    (cell_patch, patches, uv_box, cu, cv)
+}
+
 /// the nearest non-empty row): the cells of a convex polygon on a row are contiguous.
 fn fill_empty_cells(cell_patch: &mut [PatchId], nu: u32, nv: u32) {
     let (nu, nv) = (nu as usize, nv as usize);

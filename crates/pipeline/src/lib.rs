@@ -48,13 +48,10 @@ pub enum Error {
     Estimator(#[from] rad_estimator::Error),
     #[error("cannot encode {what}: {reason}")]
     Encode { what: &'static str, reason: String },
-    #[error("cannot read {}: {source}", path.display())]
-    Read {
-        path: std::path::PathBuf,
-        source: std::io::Error,
-    },
-    #[error("cannot write {}: {source}", path.display())]
-    Write {
+    /// A file that could not be read or written (`action`: "read" or "write").
+    #[error("cannot {action} {}: {source}", path.display())]
+    Io {
+        action: &'static str,
         path: std::path::PathBuf,
         source: std::io::Error,
     },
@@ -79,10 +76,7 @@ pub fn default_estimator(mode: rad_estimator::Mode) -> rad_estimator::EstimatorC
     rad_estimator::EstimatorConfig {
         mode,
         fill: rad_estimator::HoleFill::RingNeighbour,
-        reprojection: rad_estimator::Reprojection::FirstOrder {
-            test: rad_estimator::ThresholdTest::Lateral,
-            threshold: 10.0,
-        },
+        reprojection: rad_estimator::Reprojection::LATERAL_10,
         boundary_lists: false,
         max_real_ray_share: 0.05,
         // Guesses on a grid 3 times coarser (2 or 1 where 3 does not divide the

@@ -15,7 +15,8 @@ pub fn write_atomic(
     path: &Path,
     fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), Error> {
-    let err = |source| Error::Write {
+    let err = |source| Error::Io {
+        action: "write",
         path: path.to_path_buf(),
         source,
     };

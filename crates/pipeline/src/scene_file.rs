@@ -19,7 +19,8 @@ pub struct SceneFile {
 impl SceneFile {
     /// Loads `path` (JSON or OBJ), with `patch_size` for polygons that give no grid.
     pub fn load(path: &Path, patch_size: Option<f64>) -> Result<SceneFile, Error> {
-        let bytes = std::fs::read(path).map_err(|source| Error::Read {
+        let bytes = std::fs::read(path).map_err(|source| Error::Io {
+            action: "read",
             path: path.to_path_buf(),
             source,
         })?;

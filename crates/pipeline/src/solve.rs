@@ -242,7 +242,8 @@ struct SolutionIn {
 /// added), and checks them against `scene`: made for that very scene file (its
 /// fingerprint), the right count, finite and non-negative.
 pub fn read_solution(path: &Path, scene: &SceneFile) -> Result<Vec<[f64; 3]>, Error> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Read {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+        action: "read",
         path: path.to_path_buf(),
         source,
     })?;

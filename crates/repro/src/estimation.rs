@@ -37,13 +37,7 @@ pub fn settings(quick: bool) -> Vec<Setting> {
                 threshold: 10.0,
             },
         ),
-        (
-            "first-order R sin/d>10",
-            Reprojection::FirstOrder {
-                test: ThresholdTest::Lateral,
-                threshold: 10.0,
-            },
-        ),
+        ("first-order R sin/d>10", Reprojection::LATERAL_10),
     ];
     for bl in [false, true] {
         let bl_name = if bl { ", lists" } else { "" };
@@ -91,10 +85,7 @@ pub fn settings(quick: bool) -> Vec<Setting> {
                 config: EstimatorConfig {
                     mode: Mode::Improved,
                     fill: HoleFill::RingNeighbour,
-                    reprojection: Reprojection::FirstOrder {
-                        test: ThresholdTest::Lateral,
-                        threshold: 10.0,
-                    },
+                    reprojection: Reprojection::LATERAL_10,
                     boundary_lists: bl,
                     max_real_ray_share: share,
                     guess_stride: stride,
@@ -337,6 +328,80 @@ fn l1_polygon(scene: &Scene, a: &Row, b: &Row) -> f64 {
         .sum()
 }
 
+/// Mean of |F − F_Lambert| / F_Lambert over the patches of other polygons than `p`'s.
+fn mean_rel_vs_lambert(scene: &Scene, p: PatchId, row: &Row) -> f64 {
+    let own = scene.patches()[p as usize].polygon;
+    let (mut sum, mut count) = (0.0, 0);
+    for (q, target) in scene.patches().iter().enumerate() {
+        if target.polygon != own {
+            let f = lambert(scene, p as usize, q);
+            sum += (row.get(q as u32) - f).abs() / f;
+            count += 1;
+        }
+    }
+    sum / count.max(1) as f64
+}
+
+/// Each target's exact row, and its noise: the row of the hemisphere `turned` (φ turned
+/// half a cell).
+fn reference_rows(
+    scene: &Scene,
+    grid: &VoxelGrid,
+    hemi: &Hemisphere,
+    turned: &Hemisphere,
+    targets: &[(usize, PatchId)],
+) -> Vec<(Row, Row)> {
+    let n = scene.patches().len();
+    targets
+        .par_iter()
+        .map_init(
+            || {
+                (
+                    grid.new_scratch(),
+                    ItemBuffer::default(),
+                    RowAccumulator::new(n),
+                )
+            },
+            |(s, buf, acc), &(_, p)| {
+                hemi.cast(scene, grid, p, s, buf);
+                let exact = hemi.row_from_items(p, buf, acc);
+                turned.cast(scene, grid, p, s, buf);
+                (exact, turned.row_from_items(p, buf, acc))
+            },
+        )
+        .collect()
+}
+
+/// One setting's figures from its rows' errors.
+fn summarise(
+    setting: &Setting,
+    errs: &[RowError],
+    with_lambert: bool,
+    seconds: f64,
+) -> SettingResult {
+    let cfg = &setting.config;
+    let pick = |f: &dyn Fn(&RowError) -> Option<f64>| {
+        Summary::of(&errs.iter().filter_map(f).collect::<Vec<_>>())
+    };
+    SettingResult {
+        setting: setting.name.clone(),
+        mode: cfg.mode.name(),
+        boundary_lists: cfg.boundary_lists,
+        rel_error: pick(&|e| Some(e.rel)),
+        rel_error_interior: pick(&|e| e.interior.then_some(e.rel)),
+        rel_error_edge: pick(&|e| (!e.interior).then_some(e.rel)),
+        l1: pick(&|e| Some(e.l1)),
+        l1_polygon: pick(&|e| Some(e.l1_polygon)),
+        rel_error_vs_lambert: with_lambert.then(|| pick(&|e| Some(e.rel_lambert))),
+        within_noise: errs.iter().filter(|e| e.l1 <= e.noise_l1).count() as f64
+            / errs.len().max(1) as f64,
+        hole_fraction: errs.iter().map(|e| e.holes).sum::<f64>() / errs.len().max(1) as f64,
+        real_ray_fraction: errs.iter().map(|e| e.real_rays).sum::<f64>() / errs.len().max(1) as f64,
+        fallback_exact: errs.iter().filter(|e| e.fallback).count(),
+        seconds,
+    }
+}
+
 /// Runs the experiment on `scene` for the windows of `polygons` (all if None).
 pub fn scene_estimation(
     name: &str,
@@ -373,24 +438,7 @@ pub fn scene_estimation(
         .enumerate()
         .flat_map(|(k, w)| w.estimated.iter().map(move |&p| (k, p)))
         .collect();
-    let reference: Vec<(Row, Row)> = targets
-        .par_iter()
-        .map_init(
-            || {
-                (
-                    grid.new_scratch(),
-                    ItemBuffer::default(),
-                    RowAccumulator::new(n),
-                )
-            },
-            |(s, buf, acc), &(_, p)| {
-                hemi.cast(scene, &grid, p, s, buf);
-                let exact = hemi.row_from_items(p, buf, acc);
-                turned.cast(scene, &grid, p, s, buf);
-                (exact, turned.row_from_items(p, buf, acc))
-            },
-        )
-        .collect();
+    let reference = reference_rows(scene, &grid, &hemi, &turned, &targets);
     progress(1, settings.len() + 1);
     let est = Estimator::new(&hemi);
     let mut results = Vec::new();
@@ -429,16 +477,7 @@ pub fn scene_estimation(
                         hemi.row_from_items(p, &items, acc)
                     };
                     let rel_lambert = if with_lambert {
-                        let own = scene.patches()[p as usize].polygon;
-                        let (mut sum, mut count) = (0.0, 0);
-                        for (q, target) in scene.patches().iter().enumerate() {
-                            if target.polygon != own {
-                                let f = lambert(scene, p as usize, q);
-                                sum += (row.get(q as u32) - f).abs() / f;
-                                count += 1;
-                            }
-                        }
-                        sum / count.max(1) as f64
+                        mean_rel_vs_lambert(scene, p, &row)
                     } else {
                         0.0
                     };
@@ -456,30 +495,12 @@ pub fn scene_estimation(
                 },
             )
             .collect();
-        let pick = |f: &dyn Fn(&RowError) -> Option<f64>| {
-            Summary::of(&errs.iter().filter_map(f).collect::<Vec<_>>())
-        };
-        results.push(SettingResult {
-            setting: setting.name.clone(),
-            mode: match cfg.mode {
-                Mode::Faithful => "faithful",
-                Mode::Improved => "improved",
-            },
-            boundary_lists: cfg.boundary_lists,
-            rel_error: pick(&|e| Some(e.rel)),
-            rel_error_interior: pick(&|e| e.interior.then_some(e.rel)),
-            rel_error_edge: pick(&|e| (!e.interior).then_some(e.rel)),
-            l1: pick(&|e| Some(e.l1)),
-            l1_polygon: pick(&|e| Some(e.l1_polygon)),
-            rel_error_vs_lambert: with_lambert.then(|| pick(&|e| Some(e.rel_lambert))),
-            within_noise: errs.iter().filter(|e| e.l1 <= e.noise_l1).count() as f64
-                / errs.len().max(1) as f64,
-            hole_fraction: errs.iter().map(|e| e.holes).sum::<f64>() / errs.len().max(1) as f64,
-            real_ray_fraction: errs.iter().map(|e| e.real_rays).sum::<f64>()
-                / errs.len().max(1) as f64,
-            fallback_exact: errs.iter().filter(|e| e.fallback).count(),
-            seconds: t.elapsed().as_secs_f64(),
-        });
+        results.push(summarise(
+            setting,
+            &errs,
+            with_lambert,
+            t.elapsed().as_secs_f64(),
+        ));
         progress(k + 2, settings.len() + 1);
     }
     let noise_l1: Vec<f64> = reference.iter().map(|(e, n)| l1(n, e)).collect();

@@ -392,6 +392,12 @@ impl Reproduction {
         recip(w, "loft (ours)", &self.loft.reciprocity);
         self.report_estimation(w);
         self.report_radiosity(w);
+        self.report_loft(w);
+        s
+    }
+
+    /// The loft's closure and exact-hemisphere timings.
+    fn report_loft(&self, w: &mut String) {
         let l = &self.loft;
         let _ = writeln!(w, "\n## Loft (ours; the report never published its loft)\n");
         let _ = writeln!(
@@ -432,7 +438,6 @@ impl Reproduction {
             l.config.timed_grid,
             if l.scan_identical_to_grid { "yes" } else { "NO" }
         );
-        s
     }
 }
 
@@ -510,6 +515,14 @@ impl Reproduction {
                 );
             }
         }
+        self.report_table2(w);
+        self.report_images(w);
+    }
+
+    /// Table 2: exact and estimated hemispheres.
+    fn report_table2(&self, w: &mut String) {
+        let l = &self.radiosity.loft;
+        let r = &l.report;
         let _ = writeln!(w, "\n## Table 2: exact and estimated hemispheres\n");
         let _ = writeln!(
             w,
@@ -544,6 +557,11 @@ impl Reproduction {
                 );
             }
         }
+    }
+
+    /// The loft's images and solutions, and the cube's and Cornell box's solves.
+    fn report_images(&self, w: &mut String) {
+        let l = &self.radiosity.loft;
         let _ = writeln!(w, "\n## Images (report figures 7-9) and solutions\n");
         let _ = writeln!(
             w,

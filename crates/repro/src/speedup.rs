@@ -392,65 +392,7 @@ pub fn run(
     let (runs_subset, _) = all_methods(&scene, &hemi, &subset, &[], "Table 1, subset", progress)?;
 
     // Solve and render each.
-    let s = surfaces(&scene);
-    let opts = SolveOptions {
-        solver: Solver::GaussSeidel,
-        config: SolveConfig {
-            tolerance: cfg.tolerance,
-            ..SolveConfig::default()
-        },
-        reciprocal: true,
-    };
-    let view = View::of_scene(&scene, cfg.image.0, cfg.image.1)?;
-    let rcfg = RenderConfig {
-        samples: cfg.samples,
-        shading: Shading::Smooth,
-    };
-    let mut solves = Vec::new();
-    let mut images = Vec::new();
-    let mut exact_image: Option<Image> = None;
-    for (k, (method, m)) in matrices.iter().enumerate() {
-        progress(
-            &format!("solve and render the loft, {method}"),
-            k + 1,
-            matrices.len(),
-        );
-        let solved: Solved = solve(m, &s, &opts)?;
-        let t = Instant::now();
-        let img = render(&scene, &grid, &view, &solved.solution.display(&s), &rcfg)?;
-        let render_seconds = t.elapsed().as_secs_f64();
-        let mut image_difference = None;
-        let mode = method.mode();
-        match &exact_image {
-            None => {
-                images.push(("loft_exact".to_string(), img.clone(), true));
-                exact_image = Some(img);
-            }
-            Some(exact) => {
-                let (diff, stats) = relative_difference(exact, &img)?;
-                image_difference = Some(stats.into());
-                let name = mode.expect("estimated").name();
-                let (stem, diff_stem) = if mode == Some(DEFAULT_MODE) {
-                    ("loft_estimated".to_string(), "loft_reldiff".to_string())
-                } else {
-                    (
-                        format!("loft_estimated_{name}"),
-                        format!("loft_reldiff_{name}"),
-                    )
-                };
-                images.push((stem, img, true));
-                images.push((diff_stem, diff, false));
-            }
-        }
-        solves.push(SolveRun {
-            method: method.name(),
-            solver: SolverJson::new(&solved, &opts),
-            scaling_seconds: solved.scaling_seconds,
-            solve_seconds: solved.solve_seconds,
-            render_seconds,
-            image_difference,
-        });
-    }
+    let (solves, mut images) = solve_and_render(&scene, &grid, &cfg, &matrices, progress)?;
     drop(matrices);
 
     let mut scenes = Vec::new();
@@ -506,6 +448,77 @@ pub fn run(
         scenes,
         images,
     })
+}
+
+/// Solves each matrix of the loft (the grid's exact rows first) and renders it; each
+/// image after the first is compared with the first (the report's figures 7 to 9).
+fn solve_and_render(
+    scene: &Scene,
+    grid: &VoxelGrid,
+    cfg: &SpeedupConfig,
+    matrices: &[(RowMethod, FormFactors)],
+    progress: &(dyn Fn(&str, usize, usize) + Sync),
+) -> Result<(Vec<SolveRun>, Vec<(String, Image, bool)>), Error> {
+    let s = surfaces(scene);
+    let opts = SolveOptions {
+        solver: Solver::GaussSeidel,
+        config: SolveConfig {
+            tolerance: cfg.tolerance,
+            ..SolveConfig::default()
+        },
+        reciprocal: true,
+    };
+    let view = View::of_scene(scene, cfg.image.0, cfg.image.1)?;
+    let rcfg = RenderConfig {
+        samples: cfg.samples,
+        shading: Shading::Smooth,
+    };
+    let mut solves = Vec::new();
+    let mut images = Vec::new();
+    let mut exact_image: Option<Image> = None;
+    for (k, (method, m)) in matrices.iter().enumerate() {
+        progress(
+            &format!("solve and render the loft, {method}"),
+            k + 1,
+            matrices.len(),
+        );
+        let solved: Solved = solve(m, &s, &opts)?;
+        let t = Instant::now();
+        let img = render(scene, grid, &view, &solved.solution.display(&s), &rcfg)?;
+        let render_seconds = t.elapsed().as_secs_f64();
+        let mut image_difference = None;
+        let mode = method.mode();
+        match &exact_image {
+            None => {
+                images.push(("loft_exact".to_string(), img.clone(), true));
+                exact_image = Some(img);
+            }
+            Some(exact) => {
+                let (diff, stats) = relative_difference(exact, &img)?;
+                image_difference = Some(stats.into());
+                let name = mode.expect("estimated").name();
+                let (stem, diff_stem) = if mode == Some(DEFAULT_MODE) {
+                    ("loft_estimated".to_string(), "loft_reldiff".to_string())
+                } else {
+                    (
+                        format!("loft_estimated_{name}"),
+                        format!("loft_reldiff_{name}"),
+                    )
+                };
+                images.push((stem, img, true));
+                images.push((diff_stem, diff, false));
+            }
+        }
+        solves.push(SolveRun {
+            method: method.name(),
+            solver: SolverJson::new(&solved, &opts),
+            scaling_seconds: solved.scaling_seconds,
+            solve_seconds: solved.solve_seconds,
+            render_seconds,
+            image_difference,
+        });
+    }
+    Ok((solves, images))
 }
 
 fn scene_solves(

@@ -270,9 +270,48 @@ impl FormFactors {
     ) -> Result<(FormFactors, Reciprocity), Error> {
         let n = self.n_patches();
         check_areas(area, n)?;
+        let rows = self.symmetric_part(area);
+        let target: Vec<f64> = (0..n)
+            .map(|i| area[i] * self.row_sum(i as PatchId))
+            .collect();
+        let (x, iterations, worst) = balance(&rows, &target, tolerance, max_iterations);
+        let active: Vec<bool> = target.iter().map(|&t| t > 0.0).collect();
+        if x.iter()
+            .zip(&active)
+            .any(|(v, &a)| !v.is_finite() || (a && *v <= 0.0))
+        {
+            return Err(Error::NoReciprocalScaling { iterations });
+        }
+        let (row_start, column, value, change, max_row_sum_error) = self.scaled(&rows, &x, area);
+        let mut asym: Vec<f64> = rows.into_iter().flat_map(|r| r.2).collect();
+        asym.sort_by(f64::total_cmp);
+        let report = Reciprocity {
+            max_input_asymmetry: asym.last().copied().unwrap_or(0.0),
+            median_input_asymmetry: asym.get(asym.len() / 2).copied().unwrap_or(0.0),
+            mean_row_l1_change: change / n.max(1) as f64,
+            max_row_sum_error,
+            iterations,
+            converged: worst <= tolerance,
+        };
+        Ok((
+            FormFactors {
+                row_start,
+                column,
+                value,
+                row_scale: area.iter().map(|a| 1.0 / a).collect(),
+                symmetric: true,
+            },
+            report,
+        ))
+    }
+    /// G's rows, `(A_i F_ij + A_j F_ji) / 2`, each with the input's relative
+    /// asymmetries of its resolved pairs (j > i, both terms at least 1e-4 of the smaller
+    /// area): (columns, values, asymmetries).
+    fn symmetric_part(&self, area: &[f64]) -> Vec<GRow> {
+        let n = self.n_patches();
         let (t_start, t_col, t_val) = self.weighted_transpose(area);
         // G, row by row: the merge of row i of (A F) and of (A F)^T, halved.
-        let rows: Vec<(Vec<PatchId>, Vec<f64>, Vec<f64>)> = (0..n)
+        (0..n)
             .into_par_iter()
             .map(|i| {
                 let (c, v) = self.row(i as PatchId);
@@ -310,109 +349,14 @@ impl FormFactors {
                 }
                 (cols, vals, asym)
             })
-            .collect();
-        let target: Vec<f64> = (0..n)
-            .map(|i| area[i] * self.row_sum(i as PatchId))
-            .collect();
-        let g_dot = |i: usize, x: &[f64]| -> f64 {
-            rows[i]
-                .0
-                .iter()
-                .zip(&rows[i].1)
-                .map(|(&j, &g)| g * x[j as usize])
-                .sum()
-        };
-        // Newton's method on x ∘ (G x) = t, each step solved by preconditioned conjugate
-        // gradients (Knight & Ruiz's balancing idea): the Jacobian divided by x,
-        // diag(Gx / x) + G, is symmetric positive semi-definite. Patches with t = 0 keep
-        // x = 0. `iterations` counts products by G.
-        let active: Vec<bool> = target.iter().map(|&t| t > 0.0).collect();
-        let mut x: Vec<f64> = active.iter().map(|&a| if a { 1.0 } else { 0.0 }).collect();
-        let spmv =
-            |v: &[f64]| -> Vec<f64> { (0..n).into_par_iter().map(|i| g_dot(i, v)).collect() };
-        let dot = |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(p, q)| p * q).sum() };
-        let mut iterations = 0;
-        let mut worst;
-        loop {
-            let gx = spmv(&x);
-            iterations += 1;
-            worst = (0..n)
-                .filter(|&i| active[i])
-                .map(|i| (x[i] * gx[i] - target[i]).abs() / target[i])
-                .fold(0.0, f64::max);
-            if worst <= tolerance || iterations >= max_iterations || !worst.is_finite() {
-                break;
-            }
-            let d: Vec<f64> = (0..n)
-                .map(|i| {
-                    if active[i] && x[i] > 0.0 {
-                        gx[i] / x[i]
-                    } else {
-                        1.0
-                    }
-                })
-                .collect();
-            let r: Vec<f64> = (0..n)
-                .map(|i| {
-                    if active[i] {
-                        (target[i] - x[i] * gx[i]) / x[i]
-                    } else {
-                        0.0
-                    }
-                })
-                .collect();
-            let r_norm = dot(&r, &r).sqrt();
-            let eta = worst.sqrt().min(0.5);
-            let mut delta = vec![0.0; n];
-            let mut res = r;
-            let mut z: Vec<f64> = res.iter().zip(&d).map(|(a, b)| a / b).collect();
-            let mut p = z.clone();
-            let mut rz = dot(&res, &z);
-            for _ in 0..200 {
-                let gp = spmv(&p);
-                iterations += 1;
-                let q: Vec<f64> = (0..n)
-                    .map(|i| if active[i] { d[i] * p[i] + gp[i] } else { 0.0 })
-                    .collect();
-                let pq = dot(&p, &q);
-                if !(pq > 0.0) {
-                    break;
-                }
-                let alpha = rz / pq;
-                for i in 0..n {
-                    delta[i] += alpha * p[i];
-                    res[i] -= alpha * q[i];
-                }
-                if dot(&res, &res).sqrt() <= eta * r_norm || iterations >= max_iterations {
-                    break;
-                }
-                z = res.iter().zip(&d).map(|(a, b)| a / b).collect();
-                let rz_new = dot(&res, &z);
-                let beta = rz_new / rz;
-                rz = rz_new;
-                for i in 0..n {
-                    p[i] = z[i] + beta * p[i];
-                }
-            }
-            // Stay positive: at most 90 % of the way to the boundary.
-            let mut step: f64 = 1.0;
-            for i in 0..n {
-                if active[i] && delta[i] < 0.0 {
-                    step = step.min(0.9 * x[i] / -delta[i]);
-                }
-            }
-            for i in 0..n {
-                if active[i] {
-                    x[i] += step * delta[i];
-                }
-            }
-        }
-        if x.iter()
-            .zip(&active)
-            .any(|(v, &a)| !v.is_finite() || (a && *v <= 0.0))
-        {
-            return Err(Error::NoReciprocalScaling { iterations });
-        }
+            .collect()
+    }
+
+    /// The rows of `x_i G_ij x_j / A_i` (stored as f32: symmetric bit for bit), with the
+    /// total change from this matrix and the largest row-sum error: (row_start, column,
+    /// value, change, max_row_sum_error).
+    fn scaled(&self, rows: &[GRow], x: &[f64], area: &[f64]) -> Scaled {
+        let n = self.n_patches();
         let mut row_start = Vec::with_capacity(n + 1);
         row_start.push(0);
         let mut column = Vec::new();
@@ -443,27 +387,118 @@ impl FormFactors {
             max_row_sum_error = max_row_sum_error.max((sum - self.row_sum(i as PatchId)).abs());
             row_start.push(column.len());
         }
-        let mut asym: Vec<f64> = rows.into_iter().flat_map(|r| r.2).collect();
-        asym.sort_by(f64::total_cmp);
-        let report = Reciprocity {
-            max_input_asymmetry: asym.last().copied().unwrap_or(0.0),
-            median_input_asymmetry: asym.get(asym.len() / 2).copied().unwrap_or(0.0),
-            mean_row_l1_change: change / n.max(1) as f64,
-            max_row_sum_error,
-            iterations,
-            converged: worst <= tolerance,
-        };
-        Ok((
-            FormFactors {
-                row_start,
-                column,
-                value,
-                row_scale: area.iter().map(|a| 1.0 / a).collect(),
-                symmetric: true,
-            },
-            report,
-        ))
+        (row_start, column, value, change, max_row_sum_error)
     }
+}
+
+/// A row of G: columns, values, and the input's asymmetries there.
+type GRow = (Vec<PatchId>, Vec<f64>, Vec<f64>);
+/// The scaled matrix's rows, its total change and largest row-sum error.
+type Scaled = (Vec<usize>, Vec<PatchId>, Vec<f32>, f64, f64);
+
+/// The scaling x with `x ∘ (G x) = target` (to `tolerance` relative, at most
+/// `max_iterations` products by G), G given by its `rows`: (x, products made, the
+/// largest relative error left).
+fn balance(
+    rows: &[GRow],
+    target: &[f64],
+    tolerance: f64,
+    max_iterations: usize,
+) -> (Vec<f64>, usize, f64) {
+    let n = rows.len();
+    let g_dot = |i: usize, x: &[f64]| -> f64 {
+        rows[i]
+            .0
+            .iter()
+            .zip(&rows[i].1)
+            .map(|(&j, &g)| g * x[j as usize])
+            .sum()
+    };
+    // Newton's method on x ∘ (G x) = t, each step solved by preconditioned conjugate
+    // gradients (Knight & Ruiz's balancing idea): the Jacobian divided by x,
+    // diag(Gx / x) + G, is symmetric positive semi-definite. Patches with t = 0 keep
+    // x = 0. `iterations` counts products by G.
+    let active: Vec<bool> = target.iter().map(|&t| t > 0.0).collect();
+    let mut x: Vec<f64> = active.iter().map(|&a| if a { 1.0 } else { 0.0 }).collect();
+    let spmv = |v: &[f64]| -> Vec<f64> { (0..n).into_par_iter().map(|i| g_dot(i, v)).collect() };
+    let dot = |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(p, q)| p * q).sum() };
+    let mut iterations = 0;
+    let mut worst;
+    loop {
+        let gx = spmv(&x);
+        iterations += 1;
+        worst = (0..n)
+            .filter(|&i| active[i])
+            .map(|i| (x[i] * gx[i] - target[i]).abs() / target[i])
+            .fold(0.0, f64::max);
+        if worst <= tolerance || iterations >= max_iterations || !worst.is_finite() {
+            break;
+        }
+        let d: Vec<f64> = (0..n)
+            .map(|i| {
+                if active[i] && x[i] > 0.0 {
+                    gx[i] / x[i]
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let r: Vec<f64> = (0..n)
+            .map(|i| {
+                if active[i] {
+                    (target[i] - x[i] * gx[i]) / x[i]
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let r_norm = dot(&r, &r).sqrt();
+        let eta = worst.sqrt().min(0.5);
+        let mut delta = vec![0.0; n];
+        let mut res = r;
+        let mut z: Vec<f64> = res.iter().zip(&d).map(|(a, b)| a / b).collect();
+        let mut p = z.clone();
+        let mut rz = dot(&res, &z);
+        for _ in 0..200 {
+            let gp = spmv(&p);
+            iterations += 1;
+            let q: Vec<f64> = (0..n)
+                .map(|i| if active[i] { d[i] * p[i] + gp[i] } else { 0.0 })
+                .collect();
+            let pq = dot(&p, &q);
+            if !(pq > 0.0) {
+                break;
+            }
+            let alpha = rz / pq;
+            for i in 0..n {
+                delta[i] += alpha * p[i];
+                res[i] -= alpha * q[i];
+            }
+            if dot(&res, &res).sqrt() <= eta * r_norm || iterations >= max_iterations {
+                break;
+            }
+            z = res.iter().zip(&d).map(|(a, b)| a / b).collect();
+            let rz_new = dot(&res, &z);
+            let beta = rz_new / rz;
+            rz = rz_new;
+            for i in 0..n {
+                p[i] = z[i] + beta * p[i];
+            }
+        }
+        // Stay positive: at most 90 % of the way to the boundary.
+        let mut step: f64 = 1.0;
+        for i in 0..n {
+            if active[i] && delta[i] < 0.0 {
+                step = step.min(0.9 * x[i] / -delta[i]);
+            }
+        }
+        for i in 0..n {
+            if active[i] {
+                x[i] += step * delta[i];
+            }
+        }
+    }
+    (x, iterations, worst)
 }
 
 pub(crate) fn check_areas(area: &[f64], n: usize) -> Result<(), Error> {

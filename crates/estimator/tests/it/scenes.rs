@@ -31,10 +31,7 @@ fn with_stride(stride: u32, cfg: EstimatorConfig) -> EstimatorConfig {
     }
 }
 
-const LATERAL: Reprojection = Reprojection::FirstOrder {
-    test: ThresholdTest::Lateral,
-    threshold: 10.0,
-};
+const LATERAL: Reprojection = Reprojection::LATERAL_10;
 const DISTANCE: Reprojection = Reprojection::FirstOrder {
     test: ThresholdTest::Distance,
     threshold: 10.0,

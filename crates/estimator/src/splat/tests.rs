@@ -1,125 +1,66 @@
-//! The splat's f32 cell lookup against the f64 reference (acos, atan2, `Hemisphere::cell_of`).
+//! The ring pass: every instruction set's build against the baseline's, and rough cells against the exact path.
 
-use super::{CellTrig, NOWHERE, UNSURE};
+use crate::cell_trig::CellTrig;
+use crate::splat::UNSURE;
+use crate::test_rng as rng;
+use crate::zbuffer::NOWHERE;
 use rad_hemisphere::{Hemisphere, HemisphereConfig};
 
-/// A small deterministic generator (xorshift), to avoid a dev-dependency here.
-fn rng(seed: &mut u64) -> f64 {
-    *seed ^= *seed << 13;
-    *seed ^= *seed >> 7;
-    *seed ^= *seed << 17;
-    (*seed >> 11) as f64 / (1u64 << 53) as f64
+/// A ring of random sector terms and distances of every kind (near, far, infinite).
+struct RandomRing {
+    ka: Vec<f32>,
+    kb: Vec<f32>,
+    a: Vec<f32>,
+    jc: Vec<f32>,
+    cp: Vec<f32>,
+    sp: Vec<f32>,
+    r: Vec<f32>,
 }
 
-#[test]
-fn cell_of_vector_agrees_with_the_f64_formulas_away_from_cell_edges() {
-    for (nt, np, shift) in [(180, 720, 0.0), (45, 180, 0.5), (7, 13, 0.25)] {
-        let hemi = Hemisphere::new(HemisphereConfig {
-            phi_shift: shift,
-            ..HemisphereConfig::exact(nt, np)
-        })
-        .unwrap();
-        let trig = CellTrig::new(&hemi);
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let (mut checked, mut skipped) = (0, 0);
-        for _ in 0..200_000 {
-            let q = [
-                2.0 * rng(&mut seed) - 1.0,
-                2.0 * rng(&mut seed) - 1.0,
-                rng(&mut seed),
-            ];
-            let r = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt();
-            if r < 1e-3 || q[2] <= 1e-6 {
-                continue;
-            }
-            let (theta, phi) = ((q[2] / r).acos(), q[1].atan2(q[0]));
-            // Skip points within 1e-5 rad of a cell edge, where f32 may round either way.
-            let ft = theta / hemi.d_theta();
-            let fp = (phi / hemi.d_phi() - shift).rem_euclid(np as f64);
-            let near = |x: f64| (x - x.round()).abs() < 1e-5 / hemi.d_theta().min(hemi.d_phi());
-            if near(ft) || near(fp) || theta.sin() < 1e-4 {
-                skipped += 1;
-                continue;
-            }
-            let qf = [q[0] as f32, q[1] as f32, q[2] as f32];
-            let r2 = qf[0] * qf[0] + qf[1] * qf[1] + qf[2] * qf[2];
-            assert_eq!(
-                trig.cell_of_vector(qf, r2),
-                hemi.cell_of(theta, phi),
-                "{nt}x{np} q {q:?}"
-            );
-            checked += 1;
-        }
-        assert!(
-            checked > 150_000 && skipped < 5_000,
-            "{checked} checked, {skipped} skipped"
+impl RandomRing {
+    fn new(n: usize, mut seed: u64) -> RandomRing {
+        let mut v = |lo: f64, hi: f64| (lo + (hi - lo) * rng(&mut seed)) as f32;
+        let (ka, kb, a) = (
+            (0..n).map(|_| v(-50.0, 50.0)).collect(),
+            (0..n).map(|_| v(-50.0, 50.0)).collect(),
+            (0..n).map(|_| v(-0.3, 0.3)).collect(),
         );
-    }
-}
-
-#[test]
-fn sector_of_takes_any_angle() {
-    for (np, shift) in [(8u32, 0.5), (720, 0.0), (13, 0.25)] {
-        let hemi = Hemisphere::new(HemisphereConfig {
-            phi_shift: shift,
-            ..HemisphereConfig::exact(4, np)
-        })
-        .unwrap();
-        let trig = CellTrig::new(&hemi);
-        let n = np as i64;
-        for m in -2 * n..4 * n {
-            // Cell centres, from two turns below 0 to four turns above.
-            let phi = (m as f64 + 0.5 + shift) * hemi.d_phi();
-            let want = m.rem_euclid(n) as usize;
-            assert_eq!(
-                trig.sector_of(phi as f32),
-                want,
-                "{np} sectors, shift {shift}, phi {phi}"
-            );
+        let r = (0..n)
+            .map(|j| match j % 7 {
+                0 => f32::INFINITY,
+                1 => v(0.001, 0.05),
+                _ => v(0.05, 20.0),
+            })
+            .collect();
+        let phi: Vec<f32> = (0..n)
+            .map(|j| (j as f32 + 0.5) * std::f32::consts::TAU / n as f32)
+            .collect();
+        RandomRing {
+            ka,
+            kb,
+            a,
+            jc: (0..n).map(|j| j as f32 + 0.5).collect(),
+            cp: phi.iter().map(|p| p.cos()).collect(),
+            sp: phi.iter().map(|p| p.sin()).collect(),
+            r,
         }
     }
-}
 
-#[test]
-fn the_vector_ring_passes_give_the_baseline_answers_bit_for_bit() {
-    use super::{exact_path_cell, ring_pass, RingOut, RingParams, SectorTerms};
-    use rad_core::Isa;
-    let trig = CellTrig::new(&Hemisphere::new(HemisphereConfig::exact(180, 720)).unwrap());
-    // (On a CPU with only the baseline there is nothing to compare.)
-    let n = 720;
-    let mut seed = 0x1234_5678_9abc_def1u64;
-    let mut v = |lo: f64, hi: f64| (lo + (hi - lo) * rng(&mut seed)) as f32;
-    let (ka, kb, a): (Vec<f32>, Vec<f32>, Vec<f32>) = (
-        (0..n).map(|_| v(-50.0, 50.0)).collect(),
-        (0..n).map(|_| v(-50.0, 50.0)).collect(),
-        (0..n).map(|_| v(-0.3, 0.3)).collect(),
-    );
-    let jc: Vec<f32> = (0..n).map(|j| j as f32 + 0.5).collect();
-    let phi: Vec<f32> = (0..n)
-        .map(|j| (j as f32 + 0.5) * std::f32::consts::TAU / n as f32)
-        .collect();
-    let (cp, sp): (Vec<f32>, Vec<f32>) = (
-        phi.iter().map(|p| p.cos()).collect(),
-        phi.iter().map(|p| p.sin()).collect(),
-    );
-    // Distances of every kind: near, far, infinite.
-    let r: Vec<f32> = (0..n)
-        .map(|j| match j % 7 {
-            0 => f32::INFINITY,
-            1 => v(0.001, 0.05),
-            _ => v(0.05, 20.0),
-        })
-        .collect();
-    let terms = SectorTerms {
-        ka: &ka,
-        kb: &kb,
-        jc: &jc,
-        a: &a,
-        cp: &cp,
-        sp: &sp,
-    };
-    for (st, ct) in [(0.01f32, 0.99995f32), (0.7, 0.714), (0.99995, 0.01)] {
-        let params = RingParams {
+    fn terms(&self) -> super::SectorTerms<'_> {
+        super::SectorTerms {
+            ka: &self.ka,
+            kb: &self.kb,
+            jc: &self.jc,
+            a: &self.a,
+            cp: &self.cp,
+            sp: &self.sp,
+        }
+    }
+
+    /// A ring at sinθ = `st`, cosθ = `ct` of a 180 × `n` hemisphere, motion (0.1,
+    /// −0.05, 0), points beyond 2 far.
+    fn params(st: f32, ct: f32, n: usize) -> super::RingParams {
+        super::RingParams {
             st,
             ct,
             near_limit: 2.0,
@@ -136,7 +77,47 @@ fn the_vector_ring_passes_give_the_baseline_answers_bit_for_bit() {
             margin_k: 0.0115,
             margin_l: 0.0115,
             cot_k: 0.001,
-        };
+        }
+    }
+}
+
+/// The sector terms of no motion, for rings of `n` sectors.
+struct ZeroMotion {
+    zeros: Vec<f32>,
+    jc: Vec<f32>,
+}
+
+impl ZeroMotion {
+    fn new(n: usize) -> ZeroMotion {
+        ZeroMotion {
+            zeros: vec![0.0; n],
+            jc: (0..n).map(|j| j as f32 + 0.5).collect(),
+        }
+    }
+
+    fn terms<'a>(&'a self, trig: &'a CellTrig) -> super::SectorTerms<'a> {
+        super::SectorTerms {
+            ka: &self.zeros,
+            kb: &self.zeros,
+            jc: &self.jc,
+            a: &self.zeros,
+            cp: &trig.cp,
+            sp: &trig.sp,
+        }
+    }
+}
+
+#[test]
+fn the_vector_ring_passes_give_the_baseline_answers_bit_for_bit() {
+    use super::{exact_path_cell, ring_pass, RingOut, RingParams};
+    use rad_core::Isa;
+    let trig = CellTrig::new(&Hemisphere::new(HemisphereConfig::exact(180, 720)).unwrap());
+    // (On a CPU with only the baseline there is nothing to compare.)
+    let n = 720;
+    let ring_data = RandomRing::new(n, 0x1234_5678_9abc_def1);
+    let (terms, r) = (ring_data.terms(), &ring_data.r);
+    for (st, ct) in [(0.01f32, 0.99995f32), (0.7, 0.714), (0.99995, 0.01)] {
+        let params = RandomRing::params(st, ct, n);
         let ring = 7 * n as u32;
         let run = |isa: Isa, rough: bool| {
             let (mut dest, mut d2) = (vec![0u32; n], vec![0f32; n]);
@@ -144,7 +125,7 @@ fn the_vector_ring_passes_give_the_baseline_answers_bit_for_bit() {
                 dest: &mut dest,
                 dist2: &mut d2,
             };
-            ring_pass(isa, rough, true, &r, &terms, &params, ring, out);
+            ring_pass(isa, rough, true, r, &terms, &params, ring, out);
             (dest, d2.iter().map(|f| f.to_bits()).collect::<Vec<u32>>())
         };
         // The answers: rough mode's as they are; otherwise unsure cells corrected, as the
@@ -186,7 +167,7 @@ fn the_vector_ring_passes_give_the_baseline_answers_bit_for_bit() {
                         dest: &mut dest,
                         dist2: &mut d2,
                     };
-                    ring_pass(isa, rough, first, &r, &terms, &near, ring, out);
+                    ring_pass(isa, rough, first, r, &terms, &near, ring, out);
                     (dest, d2.iter().map(|f| f.to_bits()).collect::<Vec<u32>>())
                 };
                 assert!(
@@ -219,21 +200,13 @@ fn the_vector_ring_passes_give_the_baseline_answers_bit_for_bit() {
 
 #[test]
 fn rough_cells_are_exact_away_from_edges_and_at_most_one_off_near_them() {
-    use super::{exact_path_cell, ring_pass, RingOut, RingParams, SectorTerms};
+    use super::{exact_path_cell, ring_pass, RingOut, RingParams};
     let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).unwrap();
     let trig = CellTrig::new(&hemi);
     let n = 720;
     let mut seed = 0x0bad_cafe_dead_beefu64;
-    let zeros = vec![0.0f32; n];
-    let jc: Vec<f32> = (0..n).map(|j| j as f32 + 0.5).collect();
-    let terms = SectorTerms {
-        ka: &zeros,
-        kb: &zeros,
-        jc: &jc,
-        a: &zeros,
-        cp: &trig.cp,
-        sp: &trig.sp,
-    };
+    let still = ZeroMotion::new(n);
+    let terms = still.terms(&trig);
     let (mut same, mut total, mut sure_n) = (0usize, 0usize, 0usize);
     for i in (0..180).flat_map(|i| [i; 4]) {
         let r: Vec<f32> = (0..n)
@@ -326,50 +299,13 @@ fn rough_cells_are_exact_away_from_edges_and_at_most_one_off_near_them() {
     );
 }
 
-/// Hole filling gives the same cells in every build (baseline, AVX2, AVX-512 where the
-/// CPU has them), with both policies, on rings of every pattern of holes.
-#[test]
-fn hole_filling_is_the_same_in_every_build() {
-    use super::{fill_holes_body, HOLE};
-    use crate::config::HoleFill;
-    use rad_core::{Isa, PatchId};
-    let mut seed = 0x5eed_f111_0000_0001u64;
-    for case in 0..300 {
-        let n_phi = [4, 5, 63, 64, 65, 720][case % 6];
-        let hemi = Hemisphere::new(HemisphereConfig::exact(7, n_phi as u32)).unwrap();
-        let share = rng(&mut seed);
-        let ids: Vec<PatchId> = (0..7 * n_phi)
-            .map(|_| {
-                if rng(&mut seed) < share {
-                    HOLE
-                } else {
-                    (rng(&mut seed) * 5.0) as PatchId
-                }
-            })
-            .collect();
-        for fill in [HoleFill::KeepSource, HoleFill::RingNeighbour] {
-            let source = |c: usize| 1000 + c as PatchId;
-            let mut base = ids.clone();
-            let base_holes = fill_holes_body(&hemi, &mut base, fill, source);
-            assert!(!base.contains(&HOLE), "case {case}: a hole left");
-            for isa in Isa::available() {
-                let mut got = ids.clone();
-                let holes = super::fill_holes_with(isa, &hemi, &mut got, fill, source);
-                assert_eq!(got, base, "case {case}, {isa:?}, {fill:?}");
-                assert_eq!(holes.0, base_holes.0);
-                assert_eq!(holes.1.to_bits(), base_holes.1.to_bits());
-            }
-        }
-    }
-}
-
 /// Next to the pole the exact path's own ring test (cos²θ of the f32 vector against the
 /// f32 edges) is ill-conditioned: a rough cell trusted there must still be the cell that
 /// test gives. Points just off the first ring edges, at resolutions where the fast path
 /// runs (a review found 360 × 1440 failing with a margin blind to this).
 #[test]
 fn sure_cells_agree_with_the_exact_path_next_to_the_pole() {
-    use super::{ring_pass, RingOut, RingParams, SectorTerms};
+    use super::{ring_pass, RingOut, RingParams};
     let mut seed = 0x9017_e000_0000_0001u64;
     let (mut sure_n, mut total) = (0usize, 0usize);
     for (nt, np) in [(360usize, 1440usize), (785, 3140)] {
@@ -379,16 +315,8 @@ fn sure_cells_agree_with_the_exact_path_next_to_the_pole() {
             trig.min_cell >= super::FAST_PATH_MIN_CELL,
             "the fast path runs here"
         );
-        let zeros = vec![0.0f32; np];
-        let jc: Vec<f32> = (0..np).map(|j| j as f32 + 0.5).collect();
-        let terms = SectorTerms {
-            ka: &zeros,
-            kb: &zeros,
-            jc: &jc,
-            a: &zeros,
-            cp: &trig.cp,
-            sp: &trig.sp,
-        };
+        let still = ZeroMotion::new(np);
+        let terms = still.terms(&trig);
         let d_theta = hemi.d_theta();
         for k in 1..6 {
             for delta in [1e-6, 3e-6, 1e-5, 1.5e-5, 2e-5, 3e-5, 5e-5, 1e-4] {
@@ -468,57 +396,4 @@ fn sure_cells_agree_with_the_exact_path_next_to_the_pole() {
     }
     // Most of these points are left to the exact path, but not all.
     assert!(sure_n > 0 && sure_n < total, "{sure_n} of {total} sure");
-}
-
-/// The z-buffered writes in every build against the plain rule (each cell keeps the
-/// smallest key written to it), on rings whose points crowd into a few cells (so that
-/// the eight lanes of a group often share a cell, in and out of order), with points
-/// that leave the hemisphere and rings not a multiple of eight long.
-#[test]
-fn z_buffered_writes_keep_the_nearest_in_every_build() {
-    use super::put_ring;
-    use rad_core::{Isa, PatchId};
-    let mut seed = 0x5eed_2b0f_0000_0001u64;
-    for case in 0..400 {
-        let n = [1, 7, 8, 9, 16, 61, 720][case % 7];
-        let n_cells = [1, 3, 17, 1000][(case / 7) % 4];
-        let nowhere = rng(&mut seed) * 0.3;
-        let dest: Vec<u32> = (0..n)
-            .map(|_| {
-                if rng(&mut seed) < nowhere {
-                    NOWHERE
-                } else {
-                    (rng(&mut seed) * n_cells as f64) as u32
-                }
-            })
-            .collect();
-        // Few distinct distances and values, so that ties are common.
-        let dist2: Vec<f32> = (0..n)
-            .map(|_| [0.25f32, 1.0, 2.5, f32::INFINITY][(rng(&mut seed) * 4.0) as usize])
-            .collect();
-        let values: Vec<PatchId> = (0..n).map(|_| (rng(&mut seed) * 6.0) as PatchId).collect();
-        let start: Vec<u64> = (0..=n_cells)
-            .map(|c| {
-                if c % 3 == 0 {
-                    super::EMPTY
-                } else {
-                    (u64::from(1.5f32.to_bits()) << 32) | c as u64
-                }
-            })
-            .collect();
-        let mut want = start.clone();
-        for j in 0..n {
-            let slot = (dest[j] as usize).min(n_cells);
-            let key = (u64::from(dist2[j].to_bits()) << 32) | u64::from(values[j]);
-            want[slot] = want[slot].min(key);
-        }
-        for isa in Isa::available() {
-            let mut got = start.clone();
-            put_ring(isa, &mut got, &dest, &dist2, &values);
-            assert_eq!(
-                got, want,
-                "case {case}, {isa:?}, {n} points into {n_cells} cells"
-            );
-        }
-    }
 }
