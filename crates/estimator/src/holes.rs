@@ -16,7 +16,14 @@ pub(crate) fn fill_holes_with(
     fill: HoleFill,
     source: impl Fn(usize) -> PatchId,
 ) -> (usize, f64) {
-    with_isa!(isa, |ISA| fill_holes_body(hemi, ids, fill, source))
+    with_isa!(isa, |ISA| fn(
+        hemi: &Hemisphere = hemi,
+        ids: &mut [PatchId] = ids,
+        fill: HoleFill = fill,
+        source: impl Fn(usize) -> PatchId = source,
+    ) -> (usize, f64) {
+        fill_holes_body(hemi, ids, fill, source)
+    })
 }
 
 #[inline(always)]

@@ -189,29 +189,12 @@ pub(crate) fn exact_path_cell(
     trig.cell_near([q0, q1, q2], q2 * q2 / r2, k, l) as u32
 }
 
-/// [`ring_pass_body`] compiled for `isa` (checked against the CPU). The AVX2 and
-/// AVX-512 builds (8 and 16 lanes) perform the same IEEE operations in the same order
-/// (no contraction into FMA), but for the fused angle polynomial without `ROUGH`, so
-/// the same answers as the baseline build (the same bits in rough mode; the same cells
-/// once corrected otherwise).
-pub(crate) fn ring_pass_with<const ROUGH: bool, const FIRST: bool>(
-    isa: Isa,
-    r: &[f32],
-    t: &SectorTerms,
-    p: &RingParams,
-    ring: u32,
-    out: RingOut,
-) {
-    with_isa!(isa, |ISA| if ROUGH || ISA == Isa::Base {
-        ring_pass_body::<ROUGH, FIRST, false>(r, t, p, ring, out)
-    } else {
-        ring_pass_body::<ROUGH, FIRST, true>(r, t, p, ring, out)
-    })
-}
-
-/// [`ring_pass_body`] compiled for `isa` (one this CPU has), `first` telling whether any
-/// point may take the first-order path (`false` only where none is beyond
-/// `p.near_limit`).
+/// [`ring_pass_body`] compiled for `isa` (checked against the CPU), `first` telling
+/// whether any point may take the first-order path (`false` only where none is beyond
+/// `p.near_limit`). The AVX2 and AVX-512 builds (8 and 16 lanes) perform the same IEEE
+/// operations in the same order (no contraction into FMA), but for the fused angle
+/// polynomial without `rough`, so the same answers as the baseline build (the same bits
+/// in rough mode; the same cells once corrected otherwise).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn ring_pass(
     isa: Isa,
@@ -223,12 +206,26 @@ pub(crate) fn ring_pass(
     ring: u32,
     out: RingOut,
 ) {
-    match (rough, first) {
-        (true, true) => ring_pass_with::<true, true>(isa, r, t, p, ring, out),
-        (true, false) => ring_pass_with::<true, false>(isa, r, t, p, ring, out),
-        (false, true) => ring_pass_with::<false, true>(isa, r, t, p, ring, out),
-        (false, false) => ring_pass_with::<false, false>(isa, r, t, p, ring, out),
-    }
+    with_isa!(isa, |ISA| fn(
+        rough: bool = rough,
+        first: bool = first,
+        r: &[f32] = r,
+        t: &SectorTerms<'_> = t,
+        p: &RingParams = p,
+        ring: u32 = ring,
+        out: RingOut<'_> = out,
+    ) {
+        // Faithful mode's angle polynomial is fused where the set has FMA.
+        let fused = ISA != Isa::Base;
+        match (rough, first, fused) {
+            (true, true, _) => ring_pass_body::<true, true, false>(r, t, p, ring, out),
+            (true, false, _) => ring_pass_body::<true, false, false>(r, t, p, ring, out),
+            (false, true, false) => ring_pass_body::<false, true, false>(r, t, p, ring, out),
+            (false, false, false) => ring_pass_body::<false, false, false>(r, t, p, ring, out),
+            (false, true, true) => ring_pass_body::<false, true, true>(r, t, p, ring, out),
+            (false, false, true) => ring_pass_body::<false, false, true>(r, t, p, ring, out),
+        }
+    })
 }
 
 /// The points a splat moves, one per cell of its grid (see [`splat`]).
@@ -262,9 +259,16 @@ pub(crate) fn splat(
     extras: &mut Vec<(u32, PatchId)>,
 ) {
     // (Its own passes compiled for the CPU's widest set: the ring pass is chosen apart.)
-    with_isa!(Isa::detect(), |ISA| splat_body(
-        ISA, job, value, ids, dist, z, extras
-    ))
+    with_isa!(Isa::detect(), |ISA| fn(
+        job: Splat<'_> = job,
+        value: impl Fn(PatchId) -> PatchId = value,
+        ids: &mut Vec<PatchId> = ids,
+        dist: Option<&mut Vec<f32>> = dist,
+        z: &mut ZBuffer = z,
+        extras: &mut Vec<(u32, PatchId)> = extras,
+    ) {
+        splat_body(ISA, job, value, ids, dist, z, extras)
+    })
 }
 
 /// What a splat moves, and how: the points of `src` on the grid `trig`, by the motion

@@ -329,7 +329,13 @@ impl Hemisphere {
         let n_phi = self.n_phi();
         for ring in 0..self.n_theta() {
             let cells = ring * n_phi..(ring + 1) * n_phi;
-            let forward = with_isa!(Isa::detect(), |ISA| world_dirs(poly, s, cells));
+            let forward = with_isa!(Isa::detect(), |ISA| fn(
+                poly: &Polygon = poly,
+                s: &mut NearestHits = s,
+                cells: Range<usize> = cells,
+            ) -> bool {
+                world_dirs(poly, s, cells)
+            });
             s.forward.push(forward);
         }
         s.dirs_for = Some(key);
