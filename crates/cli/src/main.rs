@@ -7,7 +7,7 @@ use rad_pipeline::images::render_to_files;
 use rad_pipeline::output::{
     write_atomic, write_patches_json, write_row_json, write_rows_footer, write_rows_header,
 };
-use rad_pipeline::solve::{read_solution, solve_scene, SolveOptions};
+use rad_pipeline::solve::{read_solution, solve_rows, SolveOptions};
 use rad_pipeline::{
     parse_patch_list, parse_resolution, CasterKind, Hemisphere, HemisphereConfig, Mode,
     RenderConfig, RowMethod, Rows, SceneFile, Shading, SolveConfig, Solver, View,
@@ -411,16 +411,19 @@ fn solve(
         reciprocal: !raw,
     };
     let n = scene.scene.patches().len();
+    let all: Vec<u32> = (0..n as u32).collect();
     let bar = row_bar(&hemi, method, n);
-    let (file, solved) = solve_scene(scene, &hemi, method, &opts, &|k| {
-        bar.set_position(k as u64);
-        if k == n {
-            bar.finish_and_clear();
-            eprintln!("solving {n} patches ({})", opts.solver.name());
-        }
+    let clock = std::time::Instant::now();
+    let made = rad_pipeline::rows(&scene.scene, &hemi, method, &all, &|k| {
+        bar.set_position(k as u64)
     })
     .map_err(|e| e.to_string())?;
+    let seconds = clock.elapsed().as_secs_f64();
     bar.finish_and_clear();
+    report_estimates(&made);
+    eprintln!("solving {n} patches ({})", opts.solver.name());
+    let (file, solved) =
+        solve_rows(scene, &hemi, made, seconds, &opts).map_err(|e| e.to_string())?;
     if let Some(rec) = solved.reciprocity.filter(|r| !r.converged) {
         eprintln!(
             "warning: the reciprocal scaling stopped after {} products with rows off their sums by up to {:.1e}; energy is conserved only to that",

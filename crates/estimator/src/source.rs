@@ -8,10 +8,10 @@ use rad_hemisphere::{Caster, Hemisphere, ItemBuffer};
 /// An exact hemisphere with, where asked, boundary lists: a cell whose closest hit is a
 /// patch on its polygon's boundary keeps every further front-facing patch its ray
 /// crosses up to the scene's bound, with its distance.
-#[derive(Clone, Debug, Default)]
 ///
 /// Its fields are private: the caches below are made from `items` on first use, so
 /// nothing may change it after it is cast.
+#[derive(Clone, Debug, Default)]
 pub struct SourceHemisphere {
     patch: PatchId,
     /// What each cell sees (a patch, `ESCAPED` or `BACK`) and how far.

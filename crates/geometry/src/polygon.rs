@@ -409,7 +409,6 @@ impl Polygon {
     }
 }
 
-/// Gives each patch-less cell the patch of the nearest non-empty cell of its row (or of
 /// Checks `vertices` and the grid size: (the vertices in f64, the unit normal, the
 /// diameter, the area).
 fn validated(
@@ -596,6 +595,7 @@ fn patch_texture(
     (cell_patch, patches, uv_box, cu, cv)
 }
 
+/// Gives each patch-less cell the patch of the nearest non-empty cell of its row (or of
 /// the nearest non-empty row): the cells of a convex polygon on a row are contiguous.
 fn fill_empty_cells(cell_patch: &mut [PatchId], nu: u32, nv: u32) {
     let (nu, nv) = (nu as usize, nv as usize);

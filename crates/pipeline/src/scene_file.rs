@@ -1,5 +1,5 @@
-//! A scene as loaded from its file, with a fingerprint of what it was made from, so
-//! that a solution is only ever read back against the very scene it was made for.
+//! A scene as loaded from its file, with a fingerprint of what it is, so that a
+//! solution is only ever read back against the very scene it was made for.
 
 use crate::Error;
 use rad_geometry::file::load_scene;
@@ -11,24 +11,23 @@ use std::path::{Path, PathBuf};
 pub struct SceneFile {
     pub path: PathBuf,
     pub scene: Scene,
-    /// FNV-1a (64 bits) of the file's bytes, then of the patch size it was loaded with
-    /// (its bits; nothing when none was given).
+    /// [`fingerprint`] of the scene as loaded.
     pub hash: u64,
 }
 
 impl SceneFile {
-    /// Loads `path` (JSON or OBJ), with `patch_size` for polygons that give no grid.
+    /// Loads `path` (JSON or OBJ and its MTL files), with `patch_size` for polygons
+    /// that give no grid.
     pub fn load(path: &Path, patch_size: Option<f64>) -> Result<SceneFile, Error> {
-        let bytes = std::fs::read(path).map_err(|source| Error::Io {
-            action: "read",
-            path: path.to_path_buf(),
-            source,
-        })?;
-        let scene = load_scene(path, patch_size)?;
-        let mut hash = fnv1a(FNV_OFFSET, &bytes);
-        if let Some(s) = patch_size {
-            hash = fnv1a(hash, &s.to_bits().to_le_bytes());
+        if let Err(source) = std::fs::metadata(path) {
+            return Err(Error::Io {
+                action: "read",
+                path: path.to_path_buf(),
+                source,
+            });
         }
+        let scene = load_scene(path, patch_size)?;
+        let hash = fingerprint(&scene);
         Ok(SceneFile {
             path: path.to_path_buf(),
             scene,
@@ -40,6 +39,36 @@ impl SceneFile {
     pub fn hash_text(&self) -> String {
         format!("fnv1a64:{:016x}", self.hash)
     }
+}
+
+/// FNV-1a (64 bits) of what a solution depends on: every polygon's vertices (their
+/// f32 bits), patch grid and material, every material's reflectance and emission, the
+/// patch count. Whatever file it came from (JSON, OBJ and its MTL files) and whatever
+/// its names and descriptions say: the same scene gives the same fingerprint, and any
+/// change a solution would see (a vertex, a grid from `--patch-size`, a reflectance in
+/// an MTL file) gives another.
+pub fn fingerprint(scene: &Scene) -> u64 {
+    let mut h = FNV_OFFSET;
+    let mut put = |bytes: &[u8]| h = fnv1a(h, bytes);
+    put(&(scene.patches().len() as u64).to_le_bytes());
+    for poly in scene.polygons() {
+        put(&(poly.vertices().len() as u32).to_le_bytes());
+        for v in poly.vertices() {
+            for c in v.to_array() {
+                put(&c.to_bits().to_le_bytes());
+            }
+        }
+        let (nu, nv) = poly.grid();
+        put(&nu.to_le_bytes());
+        put(&nv.to_le_bytes());
+        put(&poly.material().to_le_bytes());
+    }
+    for m in scene.materials() {
+        for c in m.reflectance.0.into_iter().chain(m.emission.0) {
+            put(&c.to_bits().to_le_bytes());
+        }
+    }
+    h
 }
 
 const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
@@ -56,6 +85,7 @@ fn fnv1a(mut h: u64, bytes: &[u8]) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rad_geometry::scenes::cube;
 
     #[test]
     fn fnv1a_matches_its_published_values() {
@@ -63,5 +93,35 @@ mod tests {
         assert_eq!(fnv1a(FNV_OFFSET, b""), 0xcbf2_9ce4_8422_2325);
         assert_eq!(fnv1a(FNV_OFFSET, b"a"), 0xaf63_dc4c_8601_ec8c);
         assert_eq!(fnv1a(FNV_OFFSET, b"foobar"), 0x8594_4171_f739_67e8);
+    }
+
+    #[test]
+    fn the_fingerprint_sees_what_a_solution_depends_on() {
+        let base = fingerprint(&Scene::new(cube(2)).unwrap());
+        assert_eq!(base, fingerprint(&Scene::new(cube(2)).unwrap()));
+        let mut named = cube(2);
+        named.polygons[0].name = "another name".into();
+        named.materials[0].name = "another material".into();
+        assert_eq!(
+            base,
+            fingerprint(&Scene::new(named).unwrap()),
+            "names do not count"
+        );
+        assert_ne!(
+            base,
+            fingerprint(&Scene::new(cube(3)).unwrap()),
+            "patch grids"
+        );
+        let mut grey = cube(2);
+        grey.materials[0].reflectance.0[1] += 0.01;
+        assert_ne!(base, fingerprint(&Scene::new(grey).unwrap()), "reflectance");
+        let mut lit = cube(2);
+        lit.materials[0].emission.0[0] += 1.0;
+        assert_ne!(base, fingerprint(&Scene::new(lit).unwrap()), "emission");
+        let mut moved = cube(2);
+        for v in &mut moved.polygons[0].vertices {
+            *v += glam::Vec3::splat(1e-3);
+        }
+        assert_ne!(base, fingerprint(&Scene::new(moved).unwrap()), "vertices");
     }
 }

@@ -207,7 +207,19 @@ pub fn solve_scene(
     let all: Vec<PatchId> = (0..n as PatchId).collect();
     let t = Instant::now();
     let made = crate::rows(&scene.scene, hemi, method, &all, progress)?;
-    let form_factors_seconds = t.elapsed().as_secs_f64();
+    solve_rows(scene, hemi, made, t.elapsed().as_secs_f64(), opts)
+}
+
+/// [`solve_scene`] from its rows, every patch's, made in `form_factors_seconds`.
+pub fn solve_rows(
+    scene: &SceneFile,
+    hemi: &Hemisphere,
+    made: crate::Rows,
+    form_factors_seconds: f64,
+    opts: &SolveOptions,
+) -> Result<(SolutionFile, Solved), Error> {
+    let n = scene.scene.patches().len();
+    let method = made.method;
     let ff = FormFactors::from_rows(n, made.rows.iter().map(|r| (r.patch, &r.entries[..])))?;
     drop(made);
     let solved = solve(&ff, &surfaces(&scene.scene), opts)?;
@@ -262,7 +274,8 @@ fn parse_solution(text: &str, scene: &SceneFile) -> Result<Vec<[f64; 3]>, String
         Some(h) if h == want => {}
         Some(h) => {
             return Err(format!(
-                "made for another scene (scene_hash {h}; {} is {want}): solve this scene again",
+                "made for another scene: its scene_hash is {h}, {} (as loaded, with \
+                 --patch-size if given) is {want}; solve this scene again",
                 scene.path.display()
             ))
         }

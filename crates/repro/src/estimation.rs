@@ -471,11 +471,8 @@ pub fn scene_estimation(
                             (e.items, e.holes, e.real_rays, cast)
                         }
                     };
-                    let row = if fallback {
-                        exact.clone()
-                    } else {
-                        hemi.row_from_items(p, &items, acc)
-                    };
+                    // (A fallback's items are the patch's exact hemisphere.)
+                    let row = hemi.row_from_items(p, &items, acc);
                     let rel_lambert = if with_lambert {
                         mean_rel_vs_lambert(scene, p, &row)
                     } else {

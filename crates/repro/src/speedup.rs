@@ -316,8 +316,11 @@ fn all_methods(
     for method in TABLE_1 {
         let label = format!("{stage}, {method}");
         let total = patches.len();
+        // (Every 500 rows or so: estimated rows arrive a window at a time.)
+        let reported = std::sync::atomic::AtomicUsize::new(0);
         let (rows, mut run) = run_method(scene, hemi, method, patches, &|k| {
-            if k % 500 == 0 || k == total {
+            let step = k / 500;
+            if reported.fetch_max(step, std::sync::atomic::Ordering::Relaxed) < step || k == total {
                 progress(&label, k, total)
             }
         })?;

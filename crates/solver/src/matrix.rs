@@ -304,6 +304,7 @@ impl FormFactors {
             report,
         ))
     }
+
     /// G's rows, `(A_i F_ij + A_j F_ji) / 2`, each with the input's relative
     /// asymmetries of its resolved pairs (j > i, both terms at least 1e-4 of the smaller
     /// area): (columns, values, asymmetries).

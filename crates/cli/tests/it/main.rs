@@ -301,14 +301,30 @@ fn solve_then_render_the_cornell_box() {
 fn bad_renders_and_solves(dir: &tempfile::TempDir, s: &str, sol: &Path) {
     let other = dir.path().join("other.exr");
     // Another scene's solution is refused, and nothing is written: the cube, and the
-    // same Cornell box but for its description (the same patches).
+    // same Cornell box but for one reflectance (the same patches).
     let copy = dir.path().join("cornell-copy.json");
     let text = std::fs::read_to_string(s).unwrap();
-    std::fs::write(
-        &copy,
-        text.replacen("\"description\": \"", "\"description\": \"A copy: ", 1),
-    )
-    .unwrap();
+    assert!(text.contains("0.725"), "the white reflectance");
+    std::fs::write(&copy, text.replacen("0.725", "0.724", 1)).unwrap();
+    // The same scene under another description is the same scene.
+    let renamed = dir.path().join("cornell-renamed.json");
+    let described = text.replacen("\"description\": \"", "\"description\": \"A copy: ", 1);
+    std::fs::write(&renamed, described).unwrap();
+    let out = coherad(&[
+        "render",
+        renamed.to_str().unwrap(),
+        "--solution",
+        sol.to_str().unwrap(),
+        "--out",
+        other.to_str().unwrap(),
+        "--width",
+        "40",
+        "--height",
+        "30",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    std::fs::remove_file(&other).unwrap();
     for scene in [bench_scene("cube.json"), copy] {
         let out = coherad(&[
             "render",

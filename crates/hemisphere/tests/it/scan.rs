@@ -258,3 +258,43 @@ fn scan_matches_the_grid_around_a_pentagon_off_its_plane() {
     assert_eq!(probes.len(), 300);
     assert_eq!(compare(&scene, &hemi, &probes, 4.0), None);
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(120))]
+
+    /// The scan's single rays (improved estimation's real rays, boundary lists) give the
+    /// grid's answers to the bit: closest hits from a patch centre, all rays leaving its
+    /// plane forwards (so both cull) or some not, and every crossing of a ray.
+    #[test]
+    fn scan_single_rays_match_the_grid(
+        desc in random_scene(10),
+        pick in any::<prop::sample::Index>(),
+        dirs in proptest::collection::vec(rad_testkit::unit_vector(), 1..40),
+        density in prop_oneof![Just(0.5), Just(4.0)],
+    ) {
+        use rad_hemisphere::{Caster, Scan};
+        let scene = Scene::new(desc).unwrap();
+        let grid = grid(&scene, density);
+        let patch = &scene.patches()[pick.index(scene.patches().len())];
+        let n = scene.polygons()[patch.polygon as usize].normal();
+        // Forward rays (as a hemisphere's), then the same with one turned back.
+        let forward: Vec<glam::Vec3> = dirs.iter().map(|&d| if d.dot(n) > 0.0 { d } else { -d }).collect();
+        let mut mixed = forward.clone();
+        mixed[0] = -mixed[0];
+        let (mut gs, mut ss) = (grid.new_scratch(), Scan.scratch());
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        for set in [&forward, &mixed] {
+            grid.closest_hits_from(patch.center, patch.polygon, set, &mut gs, &mut a);
+            Scan.closest_hits(&scene, patch.center, patch.polygon, set, &mut ss, &mut b);
+            prop_assert_eq!(&a, &b);
+        }
+        let (mut ga, mut sa) = (Vec::new(), Vec::new());
+        for &d in &mixed {
+            let mut ray = rad_core::Ray::new(patch.center, d);
+            ray.skip = patch.polygon;
+            grid.all_hits(&ray, &mut gs, &mut ga);
+            Scan.all_hits_along(&scene, &ray, &mut ss, &mut sa);
+            prop_assert_eq!(&ga, &sa);
+        }
+    }
+}
