@@ -4,10 +4,9 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use rad_accel::{BruteForce, VoxelGrid, VoxelGridConfig};
-use rad_core::RayCast;
 use rad_geometry::scenes::{cube, loft};
 use rad_geometry::Scene;
-use rad_hemisphere::{Hemisphere, HemisphereConfig, ItemBuffer, ScanScratch};
+use rad_hemisphere::{Caster, Hemisphere, HemisphereConfig, ItemBuffer, Scan};
 use std::hint::black_box;
 
 /// The voxel grid of `rad_pipeline::default_grid` (rad-pipeline is not a dev-dependency here).
@@ -18,7 +17,9 @@ fn spread(scene: &Scene, k: usize) -> Vec<u32> {
     (0..k).map(|i| ((i * n) / k + n / (2 * k)) as u32).collect()
 }
 
-fn bench_caster<C: RayCast>(
+/// One exact hemisphere through `caster` (any [`Caster`]: the grid and brute force
+/// through `RayCast`, or the polygon scan).
+fn bench_caster<C: Caster>(
     c: &mut Criterion,
     id: &str,
     scene: &Scene,
@@ -30,32 +31,13 @@ fn bench_caster<C: RayCast>(
     let mut group = c.benchmark_group("hemisphere/exact");
     group.throughput(Throughput::Elements(hemi.n_cells() as u64));
     group.sample_size(samples);
-    let mut scratch = caster.new_scratch();
+    let mut scratch = caster.scratch();
     let mut buf = ItemBuffer::default();
     let mut k = 0;
     group.bench_function(BenchmarkId::from_parameter(id), |b| {
         b.iter(|| {
             k = (k + 1) % patches.len();
-            hemi.cast(scene, caster, patches[k], &mut scratch, &mut buf);
-            black_box(&buf);
-        })
-    });
-    group.finish();
-}
-
-/// The polygon scan ([`Hemisphere::scan`]): the same item buffers as the grid's.
-fn bench_scan(c: &mut Criterion, id: &str, scene: &Scene, hemi: &Hemisphere) {
-    let patches = spread(scene, 64);
-    let mut group = c.benchmark_group("hemisphere/exact");
-    group.throughput(Throughput::Elements(hemi.n_cells() as u64));
-    group.sample_size(60);
-    let mut scratch = ScanScratch::default();
-    let mut buf = ItemBuffer::default();
-    let mut k = 0;
-    group.bench_function(BenchmarkId::from_parameter(id), |b| {
-        b.iter(|| {
-            k = (k + 1) % patches.len();
-            hemi.scan(scene, patches[k], &mut scratch, &mut buf);
+            caster.item_buffer(scene, hemi, patches[k], &mut scratch, &mut buf);
             black_box(&buf);
         })
     });
@@ -68,7 +50,7 @@ fn exact(c: &mut Criterion) {
         let scene = Scene::new(desc).expect("bench scenes are valid");
         let grid = VoxelGrid::build(&scene, &GRID).expect("valid grid");
         bench_caster(c, &format!("{name}/180x720/grid"), &scene, &grid, &hemi, 60);
-        bench_scan(c, &format!("{name}/180x720/scan"), &scene, &hemi);
+        bench_caster(c, &format!("{name}/180x720/scan"), &scene, &Scan, &hemi, 60);
         bench_caster(
             c,
             &format!("{name}/180x720/brute"),
