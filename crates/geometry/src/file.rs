@@ -4,7 +4,7 @@
 mod json;
 mod obj;
 
-pub use json::{scene_desc_from_json, scene_desc_to_json};
+pub use json::{scene_desc_from_json, scene_desc_to_json, scene_desc_to_json_indexed};
 pub use obj::load_obj;
 
 use crate::error::Error;

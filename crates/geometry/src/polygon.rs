@@ -398,6 +398,11 @@ impl Polygon {
     pub fn is_parallelogram(&self) -> bool {
         self.parallelogram
     }
+    /// Inward edge functions in (u, v): `a·u + b·v + c` is the world distance inside
+    /// each edge's line (what [`Polygon::contains_uv`] tests, within its tolerance).
+    pub fn edge_functions(&self) -> &[[f32; 3]] {
+        &self.edges
+    }
     /// Position of parameters (u, v).
     pub fn point(&self, u: f32, v: f32) -> Vec3 {
         self.origin + self.e_u * u + self.e_v * v

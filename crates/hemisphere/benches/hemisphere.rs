@@ -1,10 +1,14 @@
-//! `hemisphere/exact/{cube,loft}/180x720/{grid,brute,scan}`: one exact hemisphere on
+//! `hemisphere/exact/{cube,loft}/180x720/{grid,brute,scan}` and
+//! `hemisphere/exact/{loft_patches,loft_triangles,loft_fine,blob_room}/180x720/{grid,scan}`:
+//! one exact hemisphere on
 //! one thread, cycling over patches spread across the scene (so each call is on another
 //! polygon than the last); throughput in rays (cells).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use rad_accel::{BruteForce, VoxelGrid, VoxelGridConfig};
-use rad_geometry::scenes::{cube, loft};
+use rad_geometry::scenes::{
+    blob_room, cube, loft, loft_fine_triangles, loft_patches, loft_triangles,
+};
 use rad_geometry::Scene;
 use rad_hemisphere::{Caster, Hemisphere, HemisphereConfig, ItemBuffer, Scan};
 use std::hint::black_box;
@@ -44,6 +48,23 @@ fn bench_caster<C: Caster>(
     group.finish();
 }
 
+/// The mesh scenes: every polygon a patch, thousands to 115,200 of them (grid and scan;
+/// brute force would take seconds a hemisphere).
+fn meshes(c: &mut Criterion) {
+    let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).expect("valid resolution");
+    for (name, desc) in [
+        ("loft_patches", loft_patches()),
+        ("loft_triangles", loft_triangles()),
+        ("loft_fine", loft_fine_triangles()),
+        ("blob_room", blob_room()),
+    ] {
+        let scene = Scene::new(desc).expect("bench scenes are valid");
+        let grid = VoxelGrid::build(&scene, &GRID).expect("valid grid");
+        bench_caster(c, &format!("{name}/180x720/grid"), &scene, &grid, &hemi, 10);
+        bench_caster(c, &format!("{name}/180x720/scan"), &scene, &Scan, &hemi, 10);
+    }
+}
+
 fn exact(c: &mut Criterion) {
     let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).expect("valid resolution");
     for (name, desc) in [("cube", cube(10)), ("loft", loft())] {
@@ -62,5 +83,5 @@ fn exact(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, exact);
+criterion_group!(benches, exact, meshes);
 criterion_main!(benches);

@@ -1,19 +1,34 @@
-//! Scan vs grid on the loft, cube and Cornell box: `cargo run --release -p rad-hemisphere
-//! --example scan_check`: checks the item buffers are equal and times both (one thread).
+//! Scan vs grid on the loft, cube and Cornell box (and with `MESHES=1` the mesh
+//! scenes): `cargo run --release -p rad-hemisphere --example scan_check`: checks the
+//! item buffers are equal and times both (one thread).
 
 use rad_accel::{VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
-use rad_geometry::scenes::{cornell_box, cube, loft, CORNELL_PATCH_MM};
+use rad_geometry::scenes::{
+    blob_room, cornell_box, cube, loft, loft_fine_triangles, loft_patches, loft_triangles,
+    CORNELL_PATCH_MM,
+};
 use rad_geometry::Scene;
 use rad_hemisphere::{Hemisphere, HemisphereConfig, ItemBuffer, ScanScratch};
 
 fn main() {
     let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).unwrap();
-    for (name, desc) in [
+    // MESHES=1: the mesh scenes too (slower).
+    let meshes = std::env::var("MESHES").is_ok_and(|v| v == "1");
+    let mut scenes = vec![
         ("loft", loft()),
         ("cube", cube(10)),
         ("cornell", cornell_box(CORNELL_PATCH_MM)),
-    ] {
+    ];
+    if meshes {
+        scenes.extend([
+            ("loft_patches", loft_patches()),
+            ("loft_triangles", loft_triangles()),
+            ("loft_fine", loft_fine_triangles()),
+            ("blob_room", blob_room()),
+        ]);
+    }
+    for (name, desc) in scenes {
         let scene = Scene::new(desc).unwrap();
         let n = scene.patches().len();
         let patches: Vec<u32> = (0..32).map(|k| ((k * n / 32 + 37) % n) as u32).collect();

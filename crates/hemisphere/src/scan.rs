@@ -70,7 +70,14 @@ pub struct ScanStats {
     pub tests: u64,
     /// Polygons tested on every cell (no reliable angular box).
     pub full: u64,
+    /// Polygons whose plane passes within rounding of the origin but that no cell's
+    /// ray can hit (`cannot_hit_near_plane`): not tested at all.
+    pub coplanar_skips: u64,
 }
+
+/// A plane within this many times the rounding slack of the origin gives no reliable
+/// angular box (its margin, 4 slack / distance, would pass 0.4 rad).
+const NEAR_PLANE: f64 = 10.0;
 
 /// Cells whose ray may meet a polygon.
 #[derive(Debug, PartialEq)]
@@ -107,6 +114,7 @@ impl Hemisphere {
         let frame = polygons[own as usize].frame();
         let own_n = polygons[own as usize].normal().as_dvec3();
         let o64 = o.as_dvec3();
+        let mut min_cos: Option<f64> = None;
         for (id, poly) in polygons.iter().enumerate() {
             if id == own as usize {
                 continue;
@@ -141,6 +149,12 @@ impl Hemisphere {
             match region {
                 Region::None => {}
                 Region::All => {
+                    // (The lowest cosθ of any cell's direction, for the test below.)
+                    let min_cos = *min_cos.get_or_insert_with(|| self.min_cell_cos());
+                    if cannot_hit_near_plane(poly, &terms, own_n, min_cos) {
+                        s.stats.coplanar_skips += 1;
+                        continue;
+                    }
                     s.stats.full += 1;
                     s.hits.test(poly, id as u32, &terms, 0..n_cells);
                 }
@@ -516,7 +530,7 @@ fn region(poly: &Polygon, o: DVec3, num: f32, frame: [DVec3; 3]) -> Region {
     let plane = (num as f64)
         .abs()
         .min((poly.normal().as_dvec3().dot(o) - poly.plane_offset() as f64).abs());
-    if plane <= 100.0 * slack {
+    if plane <= NEAR_PLANE * slack {
         return Region::All;
     }
     // Angular margin: the rounding seen from the nearest the plane can be.
@@ -604,6 +618,56 @@ fn region(poly: &Polygon, o: DVec3, num: f32, frame: [DVec3; 3]) -> Region {
         theta: (theta_lo, theta_hi),
         phi: (hi - lo < TAU).then_some((lo, hi)),
     }
+}
+
+impl Hemisphere {
+    /// The lowest cosθ of any cell's direction (its last ring's).
+    fn min_cell_cos(&self) -> f64 {
+        self.directions()
+            .iter()
+            .map(|d| d.z as f64)
+            .fold(1.0, f64::min)
+    }
+}
+
+/// True when no cell's ray can hit `poly` (whose plane passes within rounding of the
+/// origin: a coplanar neighbour, say), proved from bounds on the grid's own f32 terms:
+/// when `poly`'s normal makes an angle γ with the patch's `own_n` such that every
+/// cell's direction meets `poly`'s plane at the same side (`n·d` of one sign, at least
+/// `d_min` in size: the cells' directions lie within θ_max = acos `min_cos` of
+/// `own_n`, so |n·d| ≥ cos(γ + θ_max)), then `t = num / n·d` has one sign: if it is
+/// negative there is no hit; if positive, `t ≤ |num| / d_min`, and every hit point,
+/// within `t_max` of the origin, projects onto the plane within `t_max` of the origin's
+/// own projection (u0, v0): a polygon whose edges leave that point farther outside
+/// than `t_max` plus its inside tolerance (and margins for f32 rounding) is never hit
+/// either. Skipping such a polygon changes no cell: the grid's test on it would fail
+/// on every cell.
+fn cannot_hit_near_plane(poly: &Polygon, h: &OriginTerms, own_n: DVec3, min_cos: f64) -> bool {
+    let n = poly.normal().as_dvec3();
+    let cos_gamma = n.dot(own_n);
+    let gamma = cos_gamma.abs().clamp(0.0, 1.0).acos();
+    let theta_max = min_cos.clamp(-1.0, 1.0).acos();
+    // f32 directions and dot products: a few 1e-7 off; keep well clear.
+    let d_min = (gamma + theta_max).cos() - 1e-5;
+    if gamma + theta_max >= FRAC_PI_2 || d_min <= 1e-5 {
+        return false;
+    }
+    let num = h.num as f64;
+    // n·d has the sign of cos γ for every cell; t > 0 needs num of that sign.
+    if num == 0.0 || (num > 0.0) != (cos_gamma > 0.0) {
+        return true;
+    }
+    let t_max = num.abs() / d_min;
+    let (u0, v0) = (h.u0 as f64, h.v0 as f64);
+    // How far outside the polygon (u0, v0) lies, in world units, and the size of the
+    // terms its f32 inside test sums (for the rounding margin).
+    let (mut outside, mut scale) = (f64::NEG_INFINITY, 0.0f64);
+    for e in poly.edge_functions() {
+        let (a, b, c) = (e[0] as f64, e[1] as f64, e[2] as f64);
+        outside = outside.max(-(a * u0 + b * v0 + c));
+        scale = scale.max((a * u0).abs() + (b * v0).abs() + c.abs());
+    }
+    outside > 1.01 * t_max + 2.0 * poly.reach() as f64 + 1e-5 * (1.0 + scale)
 }
 
 /// `x` wrapped into (−π, π].

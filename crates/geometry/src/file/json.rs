@@ -218,3 +218,77 @@ pub fn scene_desc_to_json(desc: &SceneDesc, description: Option<&str>) -> String
     s.push('\n');
     s
 }
+
+/// Writes a description of many small polygons compactly in our JSON format: one
+/// shared vertex list (each distinct vertex once) with polygons by `indices`, without
+/// names (a polygon is then named by its index), one vertex or polygon a line.
+pub fn scene_desc_to_json_indexed(desc: &SceneDesc, description: Option<&str>) -> String {
+    let mut index: std::collections::HashMap<[u32; 3], usize> = Default::default();
+    let mut vertices: Vec<[f64; 3]> = Vec::new();
+    let mut polygons = Vec::with_capacity(desc.polygons.len());
+    for p in &desc.polygons {
+        let indices = p
+            .vertices
+            .iter()
+            .map(|v| {
+                *index
+                    .entry(v.to_array().map(f32::to_bits))
+                    .or_insert_with(|| {
+                        vertices.push(arr(*v));
+                        vertices.len() - 1
+                    }) as i64
+            })
+            .collect();
+        let (patches, patch_size) = match p.grid {
+            PatchGrid::Cells { nu, nv } => (Some([nu, nv]), None),
+            PatchGrid::Size(s) => (None, Some(s)),
+        };
+        polygons.push(FilePolygon {
+            name: None,
+            material: desc.materials[p.material].name.clone(),
+            vertices: None,
+            indices: Some(indices),
+            patches,
+            patch_size,
+        });
+    }
+    let mut s = String::from("{\n");
+    if let Some(d) = description {
+        s += &format!("\"description\": {},\n", line(d));
+    }
+    let materials: Vec<FileMaterial> = desc
+        .materials
+        .iter()
+        .map(|m| FileMaterial {
+            name: m.name.clone(),
+            reflectance: m.reflectance.0,
+            emission: m.emission.0,
+        })
+        .collect();
+    s += &format!("\"materials\": {},\n", line(&materials));
+    let list = |items: Vec<String>| items.join(",\n");
+    s += &format!(
+        "\"vertices\": [\n{}\n],\n",
+        list(vertices.iter().map(|v| line(v)).collect())
+    );
+    s += &format!(
+        "\"polygons\": [\n{}\n]",
+        list(polygons.iter().map(|p| line(p)).collect())
+    );
+    if let Some(c) = desc.camera {
+        let camera = FileCamera {
+            position: arr(c.position),
+            look_at: arr(c.look_at),
+            up: arr(c.up),
+            fov_y_deg: (c.fov_y as f64).to_degrees(),
+        };
+        s += &format!(",\n\"camera\": {}", line(&camera));
+    }
+    s += "\n}\n";
+    s
+}
+
+/// One value as compact JSON.
+fn line<T: Serialize + ?Sized>(v: &T) -> String {
+    serde_json::to_string(v).expect("a scene always serialises")
+}

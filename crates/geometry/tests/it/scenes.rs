@@ -1,6 +1,8 @@
 //! The bench scenes' counts and shapes.
 
-use rad_geometry::scenes::{cornell_box, cube, loft};
+use rad_geometry::scenes::{
+    blob_room, cornell_box, cube, loft, loft_fine_triangles, loft_patches, loft_triangles,
+};
 use rad_geometry::Scene;
 
 #[test]
@@ -111,5 +113,114 @@ fn committed_bench_scene_files_match_their_builders() {
             file, built,
             "{name} is out of date: run `cargo xtask scenes`"
         );
+    }
+    // The mesh scenes are written without polygon names (by index, compactly).
+    let unnamed = |mut d: rad_geometry::SceneDesc| {
+        for (k, p) in d.polygons.iter_mut().enumerate() {
+            p.name = format!("polygon {k}");
+        }
+        d
+    };
+    for (name, built) in [
+        ("loft_patches.json", loft_patches()),
+        ("loft_triangles.json", loft_triangles()),
+        ("loft_fine.json", loft_fine_triangles()),
+        ("blob_room.json", blob_room()),
+    ] {
+        let file = rad_geometry::file::load_scene_desc(&dir.join(name), None).unwrap();
+        assert!(
+            file == unnamed(built),
+            "{name} is out of date: run `cargo xtask scenes`"
+        );
+    }
+}
+
+#[test]
+fn mesh_scenes_have_their_counts() {
+    let loft_area: f64 = Scene::new(loft())
+        .unwrap()
+        .patches()
+        .iter()
+        .map(|p| p.area)
+        .sum();
+    for (desc, polygons) in [
+        (loft_patches(), 14_400),
+        (loft_triangles(), 28_800),
+        (loft_fine_triangles(), 115_200),
+    ] {
+        let s = Scene::new(desc).unwrap();
+        assert_eq!(s.polygons().len(), polygons);
+        assert_eq!(s.patches().len(), polygons, "one patch a polygon");
+        // The same surfaces as the loft's.
+        let area: f64 = s.patches().iter().map(|p| p.area).sum();
+        assert!(
+            (area / loft_area - 1.0).abs() < 1e-6,
+            "{area} against {loft_area}"
+        );
+    }
+    let blob = Scene::new(blob_room()).unwrap();
+    let triangles = blob
+        .polygons()
+        .iter()
+        .filter(|p| p.vertices().len() == 3)
+        .count();
+    assert_eq!(triangles, 20_480);
+    // The room's faces cut into 0.25 m cells (2 · 16 · 16 + 4 · 12 · 16), the lamp's
+    // into 0.2 m cells (2 · 4 · 4 + 4 · 4), a patch a triangle.
+    assert_eq!(blob.patches().len(), 1280 + 48 + 20_480);
+}
+
+#[test]
+fn the_blob_faces_out_and_varies() {
+    let s = Scene::new(blob_room()).unwrap();
+    let centre = glam::Vec3::new(2.0, 1.15, 2.0);
+    let tris: Vec<_> = s
+        .polygons()
+        .iter()
+        .filter(|p| p.vertices().len() == 3)
+        .collect();
+    let mut areas: Vec<f64> = tris.iter().map(|p| p.area()).collect();
+    for p in &tris {
+        assert!(
+            (p.vertices()[0] - centre).dot(p.normal()) > 0.0,
+            "{} faces in",
+            p.name()
+        );
+    }
+    areas.sort_by(f64::total_cmp);
+    let (lo, hi) = (areas[areas.len() / 100], areas[areas.len() * 99 / 100]);
+    assert!(
+        hi / lo > 3.0,
+        "irregular: areas from {lo} to {hi} (1st to 99th percentile)"
+    );
+}
+
+/// No ray from a mesh scene's patches escapes (brute force, a few rays from a few
+/// patches): the tessellations leave no crack, the blob's room is closed.
+#[test]
+fn mesh_scenes_are_closed() {
+    for (desc, n_patches, n_dirs) in [
+        (loft_triangles(), 12, 24),
+        (loft_fine_triangles(), 6, 16),
+        (blob_room(), 24, 24),
+    ] {
+        let s = Scene::new(desc).unwrap();
+        let n = s.patches().len();
+        let mut hits = Vec::new();
+        for k in 0..n_patches {
+            let p = &s.patches()[(k * 7919 + 13) % n];
+            let frame = s.polygons()[p.polygon as usize].frame();
+            for j in 0..n_dirs {
+                // Directions spread over the hemisphere (a spiral).
+                let z = (j as f32 + 0.5) / n_dirs as f32;
+                let a = 2.4 * j as f32;
+                let r = (1.0 - z * z).sqrt();
+                let d = frame.world_from_local(glam::Vec3::new(r * a.cos(), r * a.sin(), z));
+                let mut ray = rad_core::Ray::new(p.center, d);
+                ray.skip = p.polygon;
+                s.all_hits(&ray, &mut hits);
+                assert!(!hits.is_empty(), "a ray escapes from patch {}", p.polygon);
+            }
+        }
     }
 }
