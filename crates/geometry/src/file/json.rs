@@ -179,15 +179,7 @@ pub fn scene_desc_to_json(desc: &SceneDesc, description: Option<&str>) -> String
     let file = FileScene {
         description: description.map(str::to_string),
         patch_size: None,
-        materials: desc
-            .materials
-            .iter()
-            .map(|m| FileMaterial {
-                name: m.name.clone(),
-                reflectance: m.reflectance.0,
-                emission: m.emission.0,
-            })
-            .collect(),
+        materials: file_materials(desc),
         vertices: Vec::new(),
         polygons: desc
             .polygons
@@ -207,12 +199,7 @@ pub fn scene_desc_to_json(desc: &SceneDesc, description: Option<&str>) -> String
                 }
             })
             .collect(),
-        camera: desc.camera.map(|c| FileCamera {
-            position: arr(c.position),
-            look_at: arr(c.look_at),
-            up: arr(c.up),
-            fov_y_deg: (c.fov_y as f64).to_degrees(),
-        }),
+        camera: file_camera(desc),
     };
     let mut s = serde_json::to_string_pretty(&file).expect("a scene always serialises");
     s.push('\n');
@@ -256,16 +243,7 @@ pub fn scene_desc_to_json_indexed(desc: &SceneDesc, description: Option<&str>) -
     if let Some(d) = description {
         s += &format!("\"description\": {},\n", line(d));
     }
-    let materials: Vec<FileMaterial> = desc
-        .materials
-        .iter()
-        .map(|m| FileMaterial {
-            name: m.name.clone(),
-            reflectance: m.reflectance.0,
-            emission: m.emission.0,
-        })
-        .collect();
-    s += &format!("\"materials\": {},\n", line(&materials));
+    s += &format!("\"materials\": {},\n", line(&file_materials(desc)));
     let list = |items: Vec<String>| items.join(",\n");
     s += &format!(
         "\"vertices\": [\n{}\n],\n",
@@ -275,13 +253,7 @@ pub fn scene_desc_to_json_indexed(desc: &SceneDesc, description: Option<&str>) -
         "\"polygons\": [\n{}\n]",
         list(polygons.iter().map(|p| line(p)).collect())
     );
-    if let Some(c) = desc.camera {
-        let camera = FileCamera {
-            position: arr(c.position),
-            look_at: arr(c.look_at),
-            up: arr(c.up),
-            fov_y_deg: (c.fov_y as f64).to_degrees(),
-        };
+    if let Some(camera) = file_camera(desc) {
         s += &format!(",\n\"camera\": {}", line(&camera));
     }
     s += "\n}\n";
@@ -291,4 +263,24 @@ pub fn scene_desc_to_json_indexed(desc: &SceneDesc, description: Option<&str>) -
 /// One value as compact JSON.
 fn line<T: Serialize + ?Sized>(v: &T) -> String {
     serde_json::to_string(v).expect("a scene always serialises")
+}
+
+fn file_materials(desc: &SceneDesc) -> Vec<FileMaterial> {
+    desc.materials
+        .iter()
+        .map(|m| FileMaterial {
+            name: m.name.clone(),
+            reflectance: m.reflectance.0,
+            emission: m.emission.0,
+        })
+        .collect()
+}
+
+fn file_camera(desc: &SceneDesc) -> Option<FileCamera> {
+    desc.camera.map(|c| FileCamera {
+        position: arr(c.position),
+        look_at: arr(c.look_at),
+        up: arr(c.up),
+        fov_y_deg: (c.fov_y as f64).to_degrees(),
+    })
 }
