@@ -10,6 +10,18 @@ pub enum PolygonProblem {
     TooFewVertices { count: usize },
     #[error("vertex {vertex} has a coordinate that is NaN or infinite ({value:?})")]
     NonFinite { vertex: usize, value: [f32; 3] },
+    #[error("has vertex {vertex} at a coordinate of magnitude {value:e}, beyond {limit:e}: the f32 ray tests would overflow; express the scene in larger units")]
+    OutOfRange {
+        vertex: usize,
+        value: f64,
+        limit: f64,
+    },
+    #[error("is {diameter:e} across, under the {limit:e} that f32 ray tests resolve there (its coordinates reach {coordinate:e}; the limit is 1e-12, or 1e-5 of that): express the scene in smaller units, or nearer the origin, or drop the polygon")]
+    TooSmall {
+        diameter: f64,
+        limit: f64,
+        coordinate: f64,
+    },
     #[error("is degenerate: area {area:e} (zero-length edge, collinear or repeated vertices)")]
     Degenerate { area: f64 },
     #[error("is not planar: vertex {vertex} lies {deviation:e} off its plane (tolerance {tolerance:e}, {rel_tolerance:e} of its diameter)")]

@@ -11,5 +11,8 @@ pub mod scenes;
 
 pub use error::{Error, PolygonProblem};
 pub use hit_test::{OriginTerms, PolygonTerms};
-pub use polygon::{Patch, Polygon, PolygonHit, MAX_CELLS_PER_POLYGON, PLANARITY_TOLERANCE};
+pub use polygon::{
+    Patch, Polygon, PolygonHit, MAX_CELLS_PER_POLYGON, MAX_COORDINATE, MIN_POLYGON_SIZE,
+    MIN_POLYGON_SIZE_RELATIVE, PLANARITY_TOLERANCE,
+};
 pub use scene::{Camera, Material, PatchGrid, PolygonDesc, Scene, SceneDesc, MAX_PATCHES};

@@ -11,6 +11,21 @@ pub const PLANARITY_TOLERANCE: f64 = 1e-4;
 /// Largest patch grid accepted on one polygon (cells, nu · nv).
 pub const MAX_CELLS_PER_POLYGON: u64 = 1 << 24;
 
+/// The largest coordinate magnitude a vertex may have: the f32 ray tests square
+/// distances and multiply coordinates, which overflow f32 (3.4e38) not far above
+/// (1e18)² with the margins of the sums.
+pub const MAX_COORDINATE: f64 = 1e18;
+
+/// The smallest a polygon may be, as a diameter, absolutely (below it, squared
+/// distances and the inside tolerance fall into f32's subnormal range and lose their
+/// precision)...
+pub const MIN_POLYGON_SIZE: f64 = 1e-12;
+
+/// ...and relative to its largest coordinate magnitude: f32 resolves about 6e-8 of a
+/// coordinate and the inside tests grow polygons by 4e-6 of it, so a polygon under
+/// 1e-5 of its distance from the origin is a few tolerances across, its shape lost.
+pub const MIN_POLYGON_SIZE_RELATIVE: f64 = 1e-5;
+
 /// A clipped cell smaller than this fraction of a whole cell is no patch.
 const MIN_CELL_FRACTION: f64 = 1e-9;
 
@@ -441,6 +456,30 @@ fn validated(
         .iter()
         .flat_map(|a| pts.iter().map(move |b| (*a - *b).length()))
         .fold(0.0, f64::max);
+    // The numeric range the f32 ray tests resolve.
+    if let Some((vertex, p)) = pts
+        .iter()
+        .enumerate()
+        .find(|(_, p)| p.abs().max_element() > MAX_COORDINATE)
+    {
+        return Err(PolygonProblem::OutOfRange {
+            vertex,
+            value: p.abs().max_element(),
+            limit: MAX_COORDINATE,
+        });
+    }
+    let reach = pts
+        .iter()
+        .map(|p| p.abs().max_element())
+        .fold(0.0, f64::max);
+    let min_size = MIN_POLYGON_SIZE.max(MIN_POLYGON_SIZE_RELATIVE * reach);
+    if diameter > 0.0 && diameter < min_size {
+        return Err(PolygonProblem::TooSmall {
+            diameter,
+            limit: min_size,
+            coordinate: reach,
+        });
+    }
     let area = 0.5 * newell.length();
     let min_edge = (0..n_vertices)
         .map(|k| (pts[(k + 1) % n_vertices] - pts[k]).length())

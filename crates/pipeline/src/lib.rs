@@ -55,6 +55,14 @@ pub enum Error {
         path: std::path::PathBuf,
         source: std::io::Error,
     },
+    /// A value that is not finite where data was expected: never written, never called
+    /// converged.
+    #[error("{what} is {value}, not a finite number (it arose in {place}); nothing was written")]
+    NonFinite {
+        what: String,
+        value: f64,
+        place: &'static str,
+    },
     #[error("{}: {reason}", path.display())]
     Solution {
         path: std::path::PathBuf,

@@ -31,13 +31,25 @@ pub fn rows(
     patches: &[PatchId],
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Rows, Error> {
-    match method.caster() {
+    let made = match method.caster() {
         CasterKind::Scan => rows_with(scene, &Scan, hemi, method, patches, progress),
         CasterKind::Grid => {
             let grid = VoxelGrid::build(scene, &default_grid())?;
             rows_with(scene, &grid, hemi, method, patches, progress)
         }
+    }?;
+    // (Form factors are sums of finite delta form factors: a non-finite one is a bug.)
+    for r in &made.rows {
+        let values = r.entries.iter().map(|e| e.1).chain([r.back, r.escaped]);
+        if let Some(v) = values.into_iter().find(|v| !v.is_finite()) {
+            return Err(Error::NonFinite {
+                what: format!("a form factor of patch {}", r.patch),
+                value: v,
+                place: "its row",
+            });
+        }
     }
+    Ok(made)
 }
 
 fn rows_with<C: Caster>(

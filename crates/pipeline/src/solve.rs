@@ -223,6 +223,7 @@ pub fn solve_rows(
     let ff = FormFactors::from_rows(n, made.rows.iter().map(|r| (r.patch, &r.entries[..])))?;
     drop(made);
     let solved = solve(&ff, &surfaces(&scene.scene), opts)?;
+    check_finite(&solved)?;
     let file = SolutionFile {
         scene: scene.path.display().to_string(),
         scene_hash: scene.hash_text(),
@@ -239,6 +240,32 @@ pub fn solve_rows(
         radiosity: solved.solution.radiosity.clone(),
     };
     Ok((file, solved))
+}
+
+/// Refuses a solve that produced a non-finite radiosity, ambient term or energy figure.
+fn check_finite(solved: &Solved) -> Result<(), Error> {
+    let bad = |what: String, value: f64, place| Err(Error::NonFinite { what, value, place });
+    let s = &solved.solution;
+    for (i, b) in s.radiosity.iter().enumerate() {
+        if let Some(&c) = b.iter().find(|c| !c.is_finite()) {
+            return bad(format!("the radiosity of patch {i}"), c, "the solver");
+        }
+    }
+    if let Some(&c) = s.ambient.iter().find(|c| !c.is_finite()) {
+        return bad("the ambient term".into(), c, "the solver");
+    }
+    if !s.report.residual.is_finite() {
+        return bad("the residual".into(), s.report.residual, "the solver");
+    }
+    let e = &solved.balance;
+    if !e.relative_imbalance.is_finite() {
+        return bad(
+            "the energy imbalance".into(),
+            e.relative_imbalance,
+            "the energy balance",
+        );
+    }
+    Ok(())
 }
 
 /// What [`read_solution`] reads of a solution file.

@@ -485,3 +485,40 @@ fn form_factor_files_keep_their_stored_hashes() {
         }
     }
 }
+
+/// The unit cube scaled to 1e30 or 1e-30 is refused with the polygon and the limit (it
+/// used to be solved into `null` radiosities, or zeros), and nothing is written.
+#[test]
+fn scenes_beyond_the_numeric_range_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(bench_scene("cube.json")).unwrap();
+    let mut cube: serde_json::Value = serde_json::from_str(&text).unwrap();
+    cube.as_object_mut().unwrap().remove("camera");
+    for (k, want) in [(1e30, "beyond 1e18"), (1e-30, "under the 1e-12")] {
+        let mut scaled = cube.clone();
+        for p in scaled["polygons"].as_array_mut().unwrap() {
+            for v in p["vertices"].as_array_mut().unwrap() {
+                for c in v.as_array_mut().unwrap() {
+                    *c = serde_json::json!(c.as_f64().unwrap() * k);
+                }
+            }
+        }
+        let path = dir.path().join(format!("cube-{k:e}.json"));
+        std::fs::write(&path, scaled.to_string()).unwrap();
+        let out_file = dir.path().join("solution.json");
+        let out = coherad(&[
+            "solve",
+            path.to_str().unwrap(),
+            "--resolution",
+            "8x32",
+            "--out",
+            out_file.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains(want) && err.contains("polygon 0"),
+            "{err}"
+        );
+        assert!(!out_file.exists());
+    }
+}

@@ -301,3 +301,46 @@ fn obj_files() {
     let e = load_scene(&oob, Some(0.5)).unwrap_err();
     assert!(e.to_string().contains("oob.obj"), "{e}");
 }
+
+/// Scenes beyond what the f32 ray tests resolve are refused by polygon, with the limit
+/// (the unit cube scaled to 1e30 gave rows 99.9 % "escaped", and to 1e-30 radiosities
+/// of 0; from 1e-12 to 1e18 the answers are right and the scene is accepted).
+#[test]
+fn scenes_outside_the_numeric_range_are_refused() {
+    let scaled = |k: f32| {
+        let mut d = rad_geometry::scenes::cube(2);
+        for p in &mut d.polygons {
+            for v in &mut p.vertices {
+                *v *= k;
+            }
+        }
+        Scene::new(d)
+    };
+    for k in [1e-12f32, 1e-6, 1.0, 1e6, 1e18] {
+        assert!(scaled(k).is_ok(), "scale {k:e}");
+    }
+    let e = scaled(1e30).unwrap_err().to_string();
+    assert!(e.contains("polygon 0") && e.contains("beyond 1e18"), "{e}");
+    let e = scaled(1e-30).unwrap_err().to_string();
+    assert!(
+        e.contains("polygon 0") && e.contains("under the 1e-12"),
+        "{e}"
+    );
+    // A millimetre triangle a kilometre out: 1e-6 of its coordinates.
+    let mut d = rad_geometry::scenes::cube(2);
+    d.polygons.push(rad_geometry::PolygonDesc {
+        name: "speck".into(),
+        vertices: vec![
+            glam::Vec3::new(1000.0, 0.0, 0.0),
+            glam::Vec3::new(1000.001, 0.0, 0.0),
+            glam::Vec3::new(1000.0, 0.001, 0.0),
+        ],
+        material: 0,
+        grid: rad_geometry::PatchGrid::Cells { nu: 1, nv: 1 },
+    });
+    let e = Scene::new(d).unwrap_err().to_string();
+    assert!(
+        e.contains("\"speck\"") && e.contains("f32 ray tests resolve"),
+        "{e}"
+    );
+}
