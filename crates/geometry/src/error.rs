@@ -16,7 +16,7 @@ pub enum PolygonProblem {
         value: f64,
         limit: f64,
     },
-    #[error("is {diameter:e} across, under the {limit:e} that f32 ray tests resolve there (its coordinates reach {coordinate:e}; the limit is 1e-12, or 1e-5 of that): express the scene in smaller units, or nearer the origin, or drop the polygon")]
+    #[error("is {diameter:e} across, under the {limit:e} that f32 ray tests resolve there (its coordinates reach {coordinate:e}; the limit is 1e-12, or 4e-6 of that: the tolerance its inside test grows it by): express the scene in smaller units, or nearer the origin, or drop the polygon")]
     TooSmall {
         diameter: f64,
         limit: f64,

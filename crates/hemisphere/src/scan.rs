@@ -643,13 +643,17 @@ impl Hemisphere {
 /// either. Skipping such a polygon changes no cell: the grid's test on it would fail
 /// on every cell.
 fn cannot_hit_near_plane(poly: &Polygon, h: &OriginTerms, own_n: DVec3, min_cos: f64) -> bool {
-    let n = poly.normal().as_dvec3();
-    let cos_gamma = n.dot(own_n);
-    let gamma = cos_gamma.abs().clamp(0.0, 1.0).acos();
-    let theta_max = min_cos.clamp(-1.0, 1.0).acos();
+    // The normals are f32 unit vectors, each 1 only within a few 1e-8: normalise in
+    // f64, and take cos(γ + θ_max) = cos γ cos θ_max − sin γ sin θ_max without acos,
+    // which would magnify their rounding by 1 / sin γ.
+    let (n, own) = (poly.normal().as_dvec3().normalize(), own_n.normalize());
+    let cos_gamma = n.dot(own);
+    let sin_gamma = n.cross(own).length();
+    let min_cos = min_cos.clamp(0.0, 1.0);
+    let sin_theta = (1.0 - min_cos * min_cos).sqrt();
     // f32 directions and dot products: a few 1e-7 off; keep well clear.
-    let d_min = (gamma + theta_max).cos() - 1e-5;
-    if gamma + theta_max >= FRAC_PI_2 || d_min <= 1e-5 {
+    let d_min = cos_gamma.abs() * min_cos - sin_gamma * sin_theta - 1e-5;
+    if d_min <= 1e-5 {
         return false;
     }
     let num = h.num as f64;
@@ -661,11 +665,15 @@ fn cannot_hit_near_plane(poly: &Polygon, h: &OriginTerms, own_n: DVec3, min_cos:
     let (u0, v0) = (h.u0 as f64, h.v0 as f64);
     // How far outside the polygon (u0, v0) lies, in world units, and the size of the
     // terms its f32 inside test sums (for the rounding margin).
+    // (The hit's u is u0 + t du·d, rounded: in edge-function units up to a few 1e-7
+    // of t (|a| |du| + |b| |dv|), large for a skewed polygon.)
+    let (du, dv) = (h.du.as_dvec3().length(), h.dv.as_dvec3().length());
     let (mut outside, mut scale) = (f64::NEG_INFINITY, 0.0f64);
     for e in poly.edge_functions() {
         let (a, b, c) = (e[0] as f64, e[1] as f64, e[2] as f64);
         outside = outside.max(-(a * u0 + b * v0 + c));
-        scale = scale.max((a * u0).abs() + (b * v0).abs() + c.abs());
+        let skew = t_max * (a.abs() * du + b.abs() * dv);
+        scale = scale.max((a * u0).abs() + (b * v0).abs() + c.abs() + skew);
     }
     outside > 1.01 * t_max + 2.0 * poly.reach() as f64 + 1e-5 * (1.0 + scale)
 }

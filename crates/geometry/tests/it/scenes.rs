@@ -195,31 +195,46 @@ fn the_blob_faces_out_and_varies() {
     );
 }
 
-/// No ray from a mesh scene's patches escapes (brute force, a few rays from a few
-/// patches): the tessellations leave no crack, the blob's room is closed.
+/// Rays from a mesh scene's patches: in the loft's tessellations each meets the
+/// surface the loft itself puts there (the nearest hit at the same distance, so the
+/// tessellation leaves no crack), and in the blob's room none escapes (brute force).
 #[test]
 fn mesh_scenes_are_closed() {
-    for (desc, n_patches, n_dirs) in [
-        (loft_triangles(), 12, 24),
-        (loft_fine_triangles(), 6, 16),
-        (blob_room(), 24, 24),
+    let loft_scene = Scene::new(loft()).unwrap();
+    let spiral = |frame: rad_core::Frame, j: usize, n: usize| {
+        let z = (j as f32 + 0.5) / n as f32;
+        let a = 2.4 * j as f32;
+        let r = (1.0 - z * z).sqrt();
+        frame.world_from_local(glam::Vec3::new(r * a.cos(), r * a.sin(), z))
+    };
+    let mut hits = Vec::new();
+    let mut nearest = |s: &Scene, ray: &rad_core::Ray| {
+        s.all_hits(ray, &mut hits);
+        hits.first().map(|h| h.t)
+    };
+    for (desc, n_patches, n_dirs, like_loft) in [
+        (loft_triangles(), 12, 24, true),
+        (loft_fine_triangles(), 6, 16, true),
+        (blob_room(), 24, 24, false),
     ] {
         let s = Scene::new(desc).unwrap();
         let n = s.patches().len();
-        let mut hits = Vec::new();
         for k in 0..n_patches {
             let p = &s.patches()[(k * 7919 + 13) % n];
             let frame = s.polygons()[p.polygon as usize].frame();
             for j in 0..n_dirs {
-                // Directions spread over the hemisphere (a spiral).
-                let z = (j as f32 + 0.5) / n_dirs as f32;
-                let a = 2.4 * j as f32;
-                let r = (1.0 - z * z).sqrt();
-                let d = frame.world_from_local(glam::Vec3::new(r * a.cos(), r * a.sin(), z));
-                let mut ray = rad_core::Ray::new(p.center, d);
-                ray.skip = p.polygon;
-                s.all_hits(&ray, &mut hits);
-                assert!(!hits.is_empty(), "a ray escapes from patch {}", p.polygon);
+                // From just off the patch (on no polygon of either scene).
+                let ray = rad_core::Ray::new(p.center + 1e-3 * p.normal, spiral(frame, j, n_dirs));
+                let t = nearest(&s, &ray);
+                assert!(t.is_some(), "a ray escapes from patch {}", p.polygon);
+                if like_loft {
+                    let t_loft = nearest(&loft_scene, &ray).unwrap();
+                    let t = t.unwrap();
+                    assert!(
+                        (t - t_loft).abs() <= 1e-4 * (1.0 + t_loft),
+                        "{t} against {t_loft}"
+                    );
+                }
             }
         }
     }

@@ -298,3 +298,46 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(40))]
+
+    /// A polygon whose plane passes through (or within 1e-7 of) a patch centre, tilted
+    /// from the patch's plane by half a ring of 180 × 720 (where its near-plane skip is
+    /// decided by a hair: the last ring's rays meet it nearly edge-on) and spanning the
+    /// centre's projection, facing either way: the scan still gives the grid's cells.
+    #[test]
+    fn scan_matches_the_grid_on_planes_through_the_centre(
+        tilt in -5e-5f64..5e-5,
+        lift in prop_oneof![Just(0.0f32), -1e-7f32..1e-7],
+        up in any::<bool>(),
+    ) {
+        use rad_geometry::{Material, PatchGrid, PolygonDesc};
+        let psi = (0.25f64).to_radians() + tilt;
+        let y = |x: f32| ((x as f64 - 0.5) * psi.tan()) as f32 + lift;
+        let v = |x: f32, z: f32| glam::Vec3::new(x, y(x), z);
+        let mut tilted = vec![v(0.2, 0.2), v(0.2, 0.8), v(0.8, 0.8), v(0.8, 0.2)];
+        if !up {
+            tilted.reverse();
+        }
+        let one = PatchGrid::Cells { nu: 1, nv: 1 };
+        let floor = [(0.0, 0.0), (0.0, 1.0), (1.0, 1.0), (1.0, 0.0)]
+            .map(|(x, z)| glam::Vec3::new(x, 0.0, z))
+            .to_vec();
+        let desc = SceneDesc {
+            materials: vec![Material {
+                name: "grey".into(),
+                reflectance: rad_core::Rgb([0.5; 3]),
+                emission: rad_core::Rgb([0.0; 3]),
+            }],
+            polygons: vec![
+                PolygonDesc { name: "floor".into(), vertices: floor, material: 0, grid: one },
+                PolygonDesc { name: "tilted".into(), vertices: tilted, material: 0, grid: one },
+            ],
+            camera: None,
+        };
+        let scene = Scene::new(desc).unwrap();
+        let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).unwrap();
+        prop_assert_eq!(compare(&scene, &hemi, &[0, 1], 4.0), None);
+    }
+}
