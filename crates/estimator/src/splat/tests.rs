@@ -217,24 +217,8 @@ fn rough_cells_are_exact_away_from_edges_and_at_most_one_off_near_them() {
             (0.3 * rng(&mut seed) - 0.15) as f32,
             0.0,
         ];
-        let params = RingParams {
-            st: trig.st[i],
-            ct: trig.ct[i],
-            near_limit: f32::INFINITY, // every point by the exact path
-            fi0: i as f32 + 0.5,
-            kd: 0.0,
-            inv_st: 1.0 / trig.st[i],
-            d,
-            n,
-            n_theta: 180,
-            inv_d_theta: trig.inv_d_theta,
-            inv_d_phi: trig.inv_d_phi,
-            shift: trig.shift,
-            fast: true,
-            margin_k: super::EDGE_MARGIN * trig.inv_d_theta,
-            margin_l: super::EDGE_MARGIN * trig.inv_d_phi,
-            cot_k: super::COT_MARGIN * trig.inv_d_theta,
-        };
+        // Every point by the exact path (no first-order limit).
+        let params = RingParams::new(&trig, i, d, f32::INFINITY, true);
         let run = |rough: bool| {
             let (mut dest, mut d2) = (vec![0u32; n], vec![0f32; n]);
             let out = RingOut {
@@ -345,24 +329,7 @@ fn sure_cells_agree_with_the_exact_path_next_to_the_pole() {
                     ];
                     let mut dist = vec![f32::INFINITY; np];
                     dist[0] = r;
-                    let params = RingParams {
-                        st: trig.st[0],
-                        ct: trig.ct[0],
-                        near_limit: f32::INFINITY,
-                        fi0: 0.5,
-                        kd: 0.0,
-                        inv_st: 1.0 / trig.st[0],
-                        d,
-                        n: np,
-                        n_theta: nt,
-                        inv_d_theta: trig.inv_d_theta,
-                        inv_d_phi: trig.inv_d_phi,
-                        shift: trig.shift,
-                        fast: true,
-                        margin_k: super::EDGE_MARGIN * trig.inv_d_theta,
-                        margin_l: super::EDGE_MARGIN * trig.inv_d_phi,
-                        cot_k: super::COT_MARGIN * trig.inv_d_theta,
-                    };
+                    let params = RingParams::new(&trig, 0, d, f32::INFINITY, true);
                     let (mut dest, mut d2) = (vec![0u32; np], vec![0f32; np]);
                     let out = RingOut {
                         dest: &mut dest,
