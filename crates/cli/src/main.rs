@@ -142,25 +142,28 @@ struct RowFlags {
     estimator: EstimatorMode,
     /// How exact hemispheres are made (with --method estimated: the window centres,
     /// improved mode's real rays and exact fallbacks): scan (each polygon tested on the
-    /// cells it can cover; fastest) or grid (each cell's ray through the voxel grid, the
-    /// report's way). Both give the same rows, to the bit.
-    #[arg(long, default_value = "scan")]
-    caster: CasterKind,
+    /// cells it can cover), hierarchy (the scan over a bounding volume hierarchy,
+    /// skipping hidden subtrees) or grid (each cell's ray through the voxel grid, the
+    /// report's way). All give the same rows, to the bit. Default: the fastest for the
+    /// scene (scan below 1024 polygons, hierarchy from there).
+    #[arg(long)]
+    caster: Option<CasterKind>,
 }
 
 impl RowFlags {
-    fn method(&self) -> RowMethod {
+    fn method(&self, scene: &SceneFile) -> RowMethod {
+        let caster = self
+            .caster
+            .unwrap_or_else(|| CasterKind::fastest_for(scene.scene.polygons().len()));
         let mode = match self.estimator {
             EstimatorMode::Faithful => Mode::Faithful,
             EstimatorMode::Improved => Mode::Improved,
         };
         match self.method {
-            Method::Exact => RowMethod::Exact {
-                caster: self.caster,
-            },
+            Method::Exact => RowMethod::Exact { caster },
             Method::Estimated => RowMethod::Estimated {
                 mode,
-                centres: self.caster,
+                centres: caster,
             },
         }
     }
@@ -220,13 +223,11 @@ fn run(cli: &Cli) -> Result<(), String> {
             patches,
             rows,
             out,
-        } => formfactors(
-            &load(scene)?,
-            resolution,
-            patches,
-            rows.method(),
-            out.as_deref(),
-        ),
+        } => {
+            let scene = load(scene)?;
+            let method = rows.method(&scene);
+            formfactors(&scene, resolution, patches, method, out.as_deref())
+        }
         Command::Solve {
             scene,
             resolution,
@@ -235,15 +236,11 @@ fn run(cli: &Cli) -> Result<(), String> {
             tolerance,
             raw,
             out,
-        } => solve(
-            &load(scene)?,
-            resolution,
-            rows.method(),
-            *solver,
-            *tolerance,
-            *raw,
-            out,
-        ),
+        } => {
+            let scene = load(scene)?;
+            let method = rows.method(&scene);
+            solve(&scene, resolution, method, *solver, *tolerance, *raw, out)
+        }
         Command::Render {
             scene,
             solution,

@@ -309,6 +309,13 @@ impl Polygon {
         }
     }
 
+    /// How far outside its edges a front-face hit is still accepted, and how far inside
+    /// them a back-face hit must be, in the units of [`Polygon::edge_functions`]
+    /// (what [`Polygon::contains_uv`] and [`Polygon::contains_uv_back`] compare with).
+    pub fn edge_tolerance(&self) -> f32 {
+        self.eps
+    }
+
     /// How far outside its edges a front-face hit is still accepted, plus how far a
     /// vertex may lie off the polygon's plane: no hit on this polygon lies farther than
     /// this from the convex hull of its vertices.

@@ -1,5 +1,5 @@
-//! `hemisphere/exact/{cube,loft}/180x720/{grid,brute,scan}` and
-//! `hemisphere/exact/{loft_patches,loft_triangles,loft_fine,blob_room}/180x720/{grid,scan}`:
+//! `hemisphere/exact/{cube,loft}/180x720/{grid,brute,scan,hierarchy}` and
+//! `hemisphere/exact/{loft_patches,loft_triangles,loft_fine,blob_room}/180x720/{grid,scan,hierarchy}`:
 //! one exact hemisphere on
 //! one thread, cycling over patches spread across the scene (so each call is on another
 //! polygon than the last); throughput in rays (cells).
@@ -10,7 +10,7 @@ use rad_geometry::scenes::{
     blob_room, cube, loft, loft_fine_triangles, loft_patches, loft_triangles,
 };
 use rad_geometry::Scene;
-use rad_hemisphere::{Caster, Hemisphere, HemisphereConfig, ItemBuffer, Scan};
+use rad_hemisphere::{Caster, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, Scan};
 use std::hint::black_box;
 
 /// The voxel grid of `rad_pipeline::default_grid` (rad-pipeline is not a dev-dependency here).
@@ -48,7 +48,8 @@ fn bench_caster<C: Caster>(
     group.finish();
 }
 
-/// The mesh scenes: every polygon a patch, thousands to 115,200 of them (grid and scan;
+/// The mesh scenes: every polygon a patch, thousands to 115,200 of them (grid, scan and
+/// hierarchy;
 /// brute force would take seconds a hemisphere).
 fn meshes(c: &mut Criterion) {
     let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).expect("valid resolution");
@@ -62,6 +63,15 @@ fn meshes(c: &mut Criterion) {
         let grid = VoxelGrid::build(&scene, &GRID).expect("valid grid");
         bench_caster(c, &format!("{name}/180x720/grid"), &scene, &grid, &hemi, 10);
         bench_caster(c, &format!("{name}/180x720/scan"), &scene, &Scan, &hemi, 10);
+        let tree = Hierarchy::new(&scene);
+        bench_caster(
+            c,
+            &format!("{name}/180x720/hierarchy"),
+            &scene,
+            &tree,
+            &hemi,
+            10,
+        );
     }
 }
 
@@ -72,6 +82,15 @@ fn exact(c: &mut Criterion) {
         let grid = VoxelGrid::build(&scene, &GRID).expect("valid grid");
         bench_caster(c, &format!("{name}/180x720/grid"), &scene, &grid, &hemi, 60);
         bench_caster(c, &format!("{name}/180x720/scan"), &scene, &Scan, &hemi, 60);
+        let tree = Hierarchy::new(&scene);
+        bench_caster(
+            c,
+            &format!("{name}/180x720/hierarchy"),
+            &scene,
+            &tree,
+            &hemi,
+            60,
+        );
         bench_caster(
             c,
             &format!("{name}/180x720/brute"),

@@ -55,7 +55,7 @@ pub struct NearestHits {
 /// Per-thread working memory of [`Hemisphere::scan`].
 #[derive(Clone, Debug, Default)]
 pub struct ScanScratch {
-    hits: NearestHits,
+    pub(crate) hits: NearestHits,
     /// For single rays ([`crate::Caster::closest_hits`]).
     pub(crate) rays: NearestHits,
     /// Work counts so far.
@@ -91,6 +91,19 @@ enum Region {
     },
 }
 
+/// What scanning one hemisphere knows of its origin: the patch centre, its polygon,
+/// normal and frame.
+pub(crate) struct ScanOrigin {
+    pub o: Vec3,
+    pub o64: DVec3,
+    pub own: PolygonId,
+    pub own_n: DVec3,
+    /// The patch's local frame `[t, b, n]`.
+    pub frame: [DVec3; 3],
+    /// The lowest cosθ of any cell's direction, once needed.
+    min_cos: Option<f64>,
+}
+
 impl Hemisphere {
     /// The item buffer of `patch`, exactly as [`Hemisphere::cast`] through a
     /// [`rad_core::RayCast`] gives it (same patch, same distance, to the bit), computed
@@ -102,91 +115,116 @@ impl Hemisphere {
         scratch: &mut ScanScratch,
         buf: &mut ItemBuffer,
     ) {
+        let mut at = self.scan_begin(scene, patch, scratch);
+        let tests_before = scratch.hits.tests;
+        for (id, poly) in scene.polygons().iter().enumerate() {
+            if id != at.own as usize {
+                self.scan_polygon::<false>(&mut at, poly, id as PolygonId, None, scratch, |_| {});
+            }
+        }
+        scratch.stats.tests += scratch.hits.tests - tests_before;
+        self.scan_finish(scene, &at, &scratch.hits, buf);
+    }
+
+    /// Starts scanning `patch`'s hemisphere: no hits yet, the cells' directions in its
+    /// polygon's frame.
+    pub(crate) fn scan_begin(
+        &self,
+        scene: &Scene,
+        patch: PatchId,
+        s: &mut ScanScratch,
+    ) -> ScanOrigin {
         let p = &scene.patches()[patch as usize];
         let own = p.polygon;
-        let polygons = scene.polygons();
-        let n_cells = self.n_cells();
-        let tests_before = scratch.hits.tests;
-        scratch.hits.begin(self, scene, own);
-        let s = scratch;
+        let polygon = &scene.polygons()[own as usize];
+        s.hits.begin(self, scene, own);
         s.stats.hemispheres += 1;
-        let o = p.center;
-        let frame = polygons[own as usize].frame();
-        let own_n = polygons[own as usize].normal().as_dvec3();
-        let o64 = o.as_dvec3();
-        let mut min_cos: Option<f64> = None;
-        for (id, poly) in polygons.iter().enumerate() {
-            if id == own as usize {
-                continue;
+        let frame = polygon.frame();
+        ScanOrigin {
+            o: p.center,
+            o64: p.center.as_dvec3(),
+            own,
+            own_n: polygon.normal().as_dvec3(),
+            frame: [frame.t, frame.b, frame.n].map(Vec3::as_dvec3),
+            min_cos: None,
+        }
+    }
+
+    /// Whether every ring's rays leave the patch's plane forwards (so that polygons
+    /// wholly behind it are never tested: the grid's culling).
+    pub(crate) fn scan_all_forward(s: &ScanScratch) -> bool {
+        s.hits.forward.iter().all(|&f| f)
+    }
+
+    /// Tests polygon `id` (= `poly`, not the patch's own) on every cell whose ray may
+    /// meet it, as the grid would, keeping the nearest hits; `span` is told each run of
+    /// cells tested. With `ANY_ORDER`, ties in t go to the lower id whatever the order
+    /// polygons come in; otherwise to the polygon tested first (polygons in increasing
+    /// id give the same).
+    pub(crate) fn scan_polygon<const ANY_ORDER: bool>(
+        &self,
+        at: &mut ScanOrigin,
+        poly: &Polygon,
+        id: PolygonId,
+        padded: Option<&[DVec3; 4]>,
+        s: &mut ScanScratch,
+        mut span: impl FnMut(Range<usize>),
+    ) {
+        let mut test = |s: &mut ScanScratch, terms: &OriginTerms, cells: Range<usize>| {
+            span(cells.clone());
+            s.hits.test_with::<ANY_ORDER>(poly, id, terms, cells);
+        };
+        let terms = poly.terms().at(at.o);
+        // The grid's culling, ring by ring as it queries them: a polygon wholly
+        // behind the plane by more than its reach is skipped in every ring whose
+        // rays all leave the plane forwards. (It should have no hits there; skipping
+        // exactly where the grid does keeps the bits the grid's even if it had.)
+        if poly.wholly_behind(at.o64, at.own_n) {
+            let np = self.n_phi();
+            for ring in 0..self.n_theta() {
+                if !s.hits.forward[ring] {
+                    test(s, &terms, ring * np..(ring + 1) * np);
+                }
             }
-            let terms = poly.terms().at(o);
-            // The grid's culling, ring by ring as it queries them: a polygon wholly
-            // behind the plane by more than its reach is skipped in every ring whose
-            // rays all leave the plane forwards. (It should have no hits there; skipping
-            // exactly where the grid does keeps the bits the grid's even if it had.)
-            if poly.wholly_behind(o64, own_n) {
+            return;
+        }
+        let num = terms.num;
+        // t = num / (n·d) > 0: front hits (n·d < 0) need num < 0, back hits num > 0,
+        // and num = 0 gives none.
+        if num == 0.0 || num.is_nan() {
+            return;
+        }
+        let own_corners;
+        let padded = match padded {
+            Some(p) => p,
+            None => {
+                own_corners = padded_corners(poly);
+                &own_corners
+            }
+        };
+        match region(poly, at.o64, num, at.frame, padded) {
+            Region::None => {}
+            Region::All => {
+                // (The lowest cosθ of any cell's direction, for the test below.)
+                let min_cos = *at.min_cos.get_or_insert_with(|| self.min_cell_cos());
+                if cannot_hit_near_plane(poly, &terms, at.own_n, min_cos) {
+                    s.stats.coplanar_skips += 1;
+                    return;
+                }
+                s.stats.full += 1;
+                test(s, &terms, 0..self.n_cells());
+            }
+            Region::Box { theta, phi } => {
                 let np = self.n_phi();
-                for ring in 0..self.n_theta() {
-                    if !s.hits.forward[ring] {
-                        s.hits
-                            .test(poly, id as u32, &terms, ring * np..(ring + 1) * np);
-                    }
-                }
-                continue;
-            }
-            let num = terms.num;
-            // t = num / (n·d) > 0: front hits (n·d < 0) need num < 0, back hits num > 0,
-            // and num = 0 gives none.
-            if num == 0.0 || num.is_nan() {
-                continue;
-            }
-            let region = region(
-                poly,
-                o64,
-                num,
-                [frame.t, frame.b, frame.n].map(Vec3::as_dvec3),
-            );
-            match region {
-                Region::None => {}
-                Region::All => {
-                    // (The lowest cosθ of any cell's direction, for the test below.)
-                    let min_cos = *min_cos.get_or_insert_with(|| self.min_cell_cos());
-                    if cannot_hit_near_plane(poly, &terms, own_n, min_cos) {
-                        s.stats.coplanar_skips += 1;
-                        continue;
-                    }
-                    s.stats.full += 1;
-                    s.hits.test(poly, id as u32, &terms, 0..n_cells);
-                }
-                Region::Box { theta, phi } => {
-                    let (nt, np) = (self.n_theta(), self.n_phi());
-                    let (d_theta, d_phi) = (self.d_theta(), self.d_phi());
-                    let i0 = (theta.0 / d_theta).floor().max(0.0) as usize;
-                    let i1 = ((theta.1 / d_theta).floor().max(0.0) as usize).min(nt - 1);
-                    let spans = phi.and_then(|(lo, hi)| {
-                        let shift = self.config().phi_shift;
-                        let j0 = (lo / d_phi - shift - 0.5).floor() as i64;
-                        let j1 = (hi / d_phi - shift - 0.5).ceil() as i64;
-                        let count = j1 - j0 + 1;
-                        (count < np as i64).then(|| {
-                            let a = j0.rem_euclid(np as i64) as usize;
-                            let count = count as usize;
-                            if a + count <= np {
-                                [(a, a + count), (0, 0)]
-                            } else {
-                                [(a, np), (0, a + count - np)]
-                            }
-                        })
-                    });
-                    for i in i0..=i1 {
-                        let ring = i * np;
-                        match spans {
-                            None => s.hits.test(poly, id as u32, &terms, ring..ring + np),
-                            Some(spans) => {
-                                for (a, b) in spans {
-                                    if b > a {
-                                        s.hits.test(poly, id as u32, &terms, ring + a..ring + b);
-                                    }
+                let spans = phi.and_then(|(lo, hi)| self.phi_spans(lo, hi));
+                for i in self.rings(theta.0, theta.1) {
+                    let ring = i * np;
+                    match spans {
+                        None => test(s, &terms, ring..ring + np),
+                        Some(spans) => {
+                            for (a, b) in spans {
+                                if b > a {
+                                    test(s, &terms, ring + a..ring + b);
                                 }
                             }
                         }
@@ -194,16 +232,55 @@ impl Hemisphere {
                 }
             }
         }
+    }
+
+    /// The rings whose θ bands meet [`lo`, `hi`] (θ ≥ 0).
+    pub(crate) fn rings(&self, lo: f64, hi: f64) -> std::ops::RangeInclusive<usize> {
+        let (nt, d_theta) = (self.n_theta(), self.d_theta());
+        let i0 = (lo / d_theta).floor().max(0.0) as usize;
+        let i1 = ((hi / d_theta).floor().max(0.0) as usize).min(nt - 1);
+        i0..=i1
+    }
+
+    /// The sectors of a ring whose φ bands meet [`lo`, `hi`] (unwrapped), as up to two
+    /// runs `[a, b)` (the second empty unless the range wraps), or None for all.
+    pub(crate) fn phi_spans(&self, lo: f64, hi: f64) -> Option<[(usize, usize); 2]> {
+        let (np, d_phi) = (self.n_phi(), self.d_phi());
+        let shift = self.config().phi_shift;
+        let j0 = (lo / d_phi - shift - 0.5).floor() as i64;
+        let j1 = (hi / d_phi - shift - 0.5).ceil() as i64;
+        let count = j1 - j0 + 1;
+        (count < np as i64).then(|| {
+            let a = j0.rem_euclid(np as i64) as usize;
+            let count = count as usize;
+            if a + count <= np {
+                [(a, a + count), (0, 0)]
+            } else {
+                [(a, np), (0, a + count - np)]
+            }
+        })
+    }
+
+    /// Writes the item buffer of the hits found (see [`NearestHits::items`]).
+    pub(crate) fn scan_finish(
+        &self,
+        scene: &Scene,
+        at: &ScanOrigin,
+        hits: &NearestHits,
+        buf: &mut ItemBuffer,
+    ) {
+        let n_cells = self.n_cells();
+        let polygons = scene.polygons();
         buf.patch.clear();
         buf.dist.clear();
         buf.patch.reserve(n_cells);
         buf.dist.reserve(n_cells);
-        s.stats.tests += s.hits.tests - tests_before;
         buf.patch.resize(n_cells, 0);
         buf.dist.resize(n_cells, 0.0);
         // Front hits need a negative plane term (see above).
+        let o = at.o;
         let front = |p: PolygonId| polygons[p as usize].plane_num(o) < 0.0;
-        s.hits.items(
+        hits.items(
             polygons,
             front,
             &mut buf.patch,
@@ -238,7 +315,41 @@ impl NearestHits {
         terms: &OriginTerms,
         cells: Range<usize>,
     ) {
-        test_span(poly, id, terms, self, cells.start, cells.end);
+        test_span::<false>(poly, id, terms, self, cells.start, cells.end);
+    }
+
+    /// [`NearestHits::test`], or with `ANY_ORDER` the same with ties in t going to the
+    /// lower polygon id whatever the order of the calls (so that polygons may come in
+    /// any order and the nearest hits are still the grid's).
+    #[inline]
+    pub(crate) fn test_with<const ANY_ORDER: bool>(
+        &mut self,
+        poly: &Polygon,
+        id: PolygonId,
+        terms: &OriginTerms,
+        cells: Range<usize>,
+    ) {
+        test_span::<ANY_ORDER>(poly, id, terms, self, cells.start, cells.end);
+    }
+
+    /// [`NearestHits::test_with`] (in any order) on several runs of cells (`shape`:
+    /// the polygon's, [`Shape::of`]).
+    #[inline]
+    pub(crate) fn test_runs(
+        &mut self,
+        poly: &Polygon,
+        id: PolygonId,
+        terms: &OriginTerms,
+        shape: &Shape,
+        runs: &[Range<usize>],
+    ) {
+        test_runs(poly, id, terms, shape, self, runs);
+    }
+
+    /// Every cell's nearest distance so far (∞ where nothing was hit).
+    #[inline]
+    pub(crate) fn best_t(&self) -> &[f32] {
+        &self.best_t
     }
 
     /// Writes the item buffer of the hits so far: every cell's distance (∞ where nothing
@@ -392,8 +503,8 @@ fn world_dirs(poly: &Polygon, s: &mut NearestHits, cells: Range<usize>) -> bool 
 }
 
 /// Tests cells `a..b` against one polygon, keeping the nearer hit (ties keep the earlier,
-/// lower polygon id).
-fn test_span(
+/// lower polygon id; with `ANY_ORDER`, the lower id whatever the order).
+fn test_span<const ANY_ORDER: bool>(
     poly: &Polygon,
     id: PolygonId,
     h: &OriginTerms,
@@ -415,6 +526,7 @@ fn test_span(
         h: &OriginTerms = h,
         id: PolygonId = id,
         simple: bool = simple,
+        any_order: bool = ANY_ORDER,
         dx: &[f32] = dx,
         dy: &[f32] = dy,
         dz: &[f32] = dz,
@@ -424,10 +536,11 @@ fn test_span(
         bv: &mut [f32] = bv,
         mask: &mut [u8] = mask,
     ) {
-        if simple {
-            span::<true>(h, id, dx, dy, dz, bt, bp, bu, bv, mask)
-        } else {
-            span::<false>(h, id, dx, dy, dz, bt, bp, bu, bv, mask)
+        match (simple, any_order) {
+            (true, false) => span::<true, false>(h, id, dx, dy, dz, bt, bp, bu, bv, mask),
+            (false, false) => span::<false, false>(h, id, dx, dy, dz, bt, bp, bu, bv, mask),
+            (true, true) => span::<true, true>(h, id, dx, dy, dz, bt, bp, bu, bv, mask),
+            (false, true) => span::<false, true>(h, id, dx, dy, dz, bt, bp, bu, bv, mask),
         }
     });
     if simple || !mask.contains(&1) {
@@ -447,12 +560,168 @@ fn test_span(
     }
 }
 
-/// The grid's ray–polygon test on a span of cells, branch-free (vectorised): with
-/// `simple`, hits are written; otherwise `mask` marks the cells that pass the (u, v)
-/// bounds and are nearer than the best so far.
+/// [`test_span`] with `ANY_ORDER` on several runs of cells at once (one dispatch), a
+/// triangle's inside test vectorised.
+fn test_runs(
+    poly: &Polygon,
+    id: PolygonId,
+    h: &OriginTerms,
+    shape: &Shape,
+    s: &mut NearestHits,
+    runs: &[Range<usize>],
+) {
+    let simple = h.num < 0.0 && matches!(shape, Shape::Parallelogram);
+    let triangle = match shape {
+        Shape::Triangle(t) => Some(*t),
+        _ => None,
+    };
+    let longest = runs.iter().map(|r| r.len()).max().unwrap_or(0);
+    s.tests += runs.iter().map(|r| r.len() as u64).sum::<u64>();
+    s.mask.resize(longest.max(s.mask.len()), 0);
+    let NearestHits {
+        dx,
+        dy,
+        dz,
+        best_t,
+        best_p,
+        best_u,
+        best_v,
+        mask,
+        ..
+    } = s;
+    with_isa!(Isa::detect(), |ISA| fn(
+        poly: &Polygon = poly,
+        h: &OriginTerms = h,
+        id: PolygonId = id,
+        simple: bool = simple,
+        triangle: Option<Triangle> = triangle,
+        runs: &[Range<usize>] = runs,
+        dx: &[f32] = dx,
+        dy: &[f32] = dy,
+        dz: &[f32] = dz,
+        bt: &mut [f32] = best_t,
+        bp: &mut [u32] = best_p,
+        bu: &mut [f32] = best_u,
+        bv: &mut [f32] = best_v,
+        mask: &mut [u8] = mask,
+    ) {
+        for r in runs {
+            let (dx, dy, dz) = (&dx[r.clone()], &dy[r.clone()], &dz[r.clone()]);
+            let (bt, bp) = (&mut bt[r.clone()], &mut bp[r.clone()]);
+            let (bu, bv) = (&mut bu[r.clone()], &mut bv[r.clone()]);
+            if simple {
+                let mask = &mut mask[..r.len()];
+                span::<true, true>(h, id, dx, dy, dz, bt, bp, bu, bv, mask);
+                continue;
+            }
+            if let Some(tri) = &triangle {
+                span_triangle(h, id, tri, dx, dy, dz, bt, bp, bu, bv);
+                continue;
+            }
+            let mask = &mut mask[..r.len()];
+            span::<false, true>(h, id, dx, dy, dz, bt, bp, bu, bv, mask);
+            for k in 0..mask.len() {
+                if mask[k] == 0 {
+                    continue;
+                }
+                let (x, y, z) = (dx[k], dy[k], dz[k]);
+                let denom = h.denom(x, y, z);
+                let t = h.num / denom;
+                let (u, v) = h.uv(t, x, y, z);
+                if poly.accepts(denom, false, u, v) {
+                    (bt[k], bp[k], bu[k], bv[k]) = (t, id, u, v);
+                }
+            }
+        }
+    });
+}
+
+/// What the inside test of a polygon needs to be vectorised, read once (so that a
+/// kernel need not reach into the polygon).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Shape {
+    /// Inside its (u, v) bounds alone, from the front.
+    Parallelogram,
+    /// Its three edge functions decide (the very sums of [`Polygon::contains_uv`] and
+    /// [`Polygon::contains_uv_back`]).
+    Triangle(Triangle),
+    /// Its own inside test, cell by cell.
+    Other,
+}
+
+impl Shape {
+    pub(crate) fn of(poly: &Polygon) -> Shape {
+        match poly.edge_functions() {
+            _ if poly.is_parallelogram() => Shape::Parallelogram,
+            [a, b, c] => Shape::Triangle(Triangle {
+                edges: [*a, *b, *c],
+                eps: poly.edge_tolerance(),
+            }),
+            _ => Shape::Other,
+        }
+    }
+}
+
+/// A triangle's edge functions and tolerance ([`Polygon::edge_functions`],
+/// [`Polygon::edge_tolerance`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Triangle {
+    edges: [[f32; 3]; 3],
+    eps: f32,
+}
+
+/// [`span`] for a triangle in any order, its inside test vectorised: a front hit
+/// (`denom < 0`) needs every edge function at least −eps, a back hit at least eps, as
+/// [`Polygon::accepts`] has it; hits are written.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn span<const SIMPLE: bool>(
+fn span_triangle(
+    h: &OriginTerms,
+    id: PolygonId,
+    tri: &Triangle,
+    dx: &[f32],
+    dy: &[f32],
+    dz: &[f32],
+    bt: &mut [f32],
+    bp: &mut [u32],
+    bu: &mut [f32],
+    bv: &mut [f32],
+) {
+    let n = dx.len();
+    let (dy, dz, bt, bp, bu, bv) = (
+        &dy[..n],
+        &dz[..n],
+        &mut bt[..n],
+        &mut bp[..n],
+        &mut bu[..n],
+        &mut bv[..n],
+    );
+    let [e0, e1, e2] = tri.edges;
+    for k in 0..n {
+        let (x, y, z) = (dx[k], dy[k], dz[k]);
+        let denom = h.denom(x, y, z);
+        let t = h.num / denom;
+        let (u, v) = h.uv(t, x, y, z);
+        let nearer = (t < bt[k]) | ((t == bt[k]) & (id < bp[k]) & (t < f32::INFINITY));
+        let limit = if denom < 0.0 { -tri.eps } else { tri.eps };
+        let inside = (e0[0] * u + e0[1] * v + e0[2] >= limit)
+            & (e1[0] * u + e1[1] * v + e1[2] >= limit)
+            & (e2[0] * u + e2[1] * v + e2[2] >= limit);
+        let hit = (t > 0.0) & nearer & inside;
+        bt[k] = if hit { t } else { bt[k] };
+        bp[k] = if hit { id } else { bp[k] };
+        bu[k] = if hit { u } else { bu[k] };
+        bv[k] = if hit { v } else { bv[k] };
+    }
+}
+
+/// The grid's ray–polygon test on a span of cells, branch-free (vectorised): with
+/// `simple`, hits are written; otherwise `mask` marks the cells that pass the (u, v)
+/// bounds and are nearer than the best so far (with `ANY_ORDER`, nearer or as near
+/// with a lower id).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn span<const SIMPLE: bool, const ANY_ORDER: bool>(
     h: &OriginTerms,
     id: PolygonId,
     dx: &[f32],
@@ -479,7 +748,13 @@ fn span<const SIMPLE: bool>(
         // The shared hit test (the grid's arithmetic, so the grid's bits).
         let t = h.num / h.denom(x, y, z);
         let (u, v) = h.uv(t, x, y, z);
-        let hit = (t > 0.0) & (t < bt[k]) & h.in_bounds(u, v);
+        let nearer = if ANY_ORDER {
+            // (t < ∞: an infinite t never counts, as with the strict rule.)
+            (t < bt[k]) | ((t == bt[k]) & (id < bp[k]) & (t < f32::INFINITY))
+        } else {
+            t < bt[k]
+        };
+        let hit = (t > 0.0) & nearer & h.in_bounds(u, v);
         if SIMPLE {
             bt[k] = if hit { t } else { bt[k] };
             bp[k] = if hit { id } else { bp[k] };
@@ -491,35 +766,44 @@ fn span<const SIMPLE: bool>(
     }
 }
 
-/// The cells whose rays from `o` may meet `poly`, in the local frame `[t, b, n]` of the
-/// patch; `num` is the grid's f32 plane term (`d − n·o`).
-fn region(poly: &Polygon, o: DVec3, num: f32, frame: [DVec3; 3]) -> Region {
-    // Every hit the grid accepts has (u, v) in this box: the polygon's (u, v) bounds,
-    // grown past its edge tolerance (the tolerance reaches farthest at its sharpest
-    // corner, eps / sin(α/2)).
+/// The corners, in world space, of the (u, v) box within which every hit the grid
+/// accepts on `poly` lies: the polygon's (u, v) bounds, grown past its edge tolerance
+/// (the tolerance reaches farthest at its sharpest corner, eps / sin(α/2)), on its
+/// plane.
+pub(crate) fn padded_corners(poly: &Polygon) -> [DVec3; 4] {
     let (lo, hi) = padded_uv_box(poly);
     // The grid's hits lie on the plane n·p = d, with (u, v) from the dual basis (du,
     // dv ⊥ n): the point of parameters (u, v) there is o' + u e_u' + v e_v', with the
     // edges projected onto the plane and o' the origin moved onto it (a vertex may lie
     // off the plane within the planarity tolerance).
     let n = poly.normal().as_dvec3();
-    let (origin, eu, ev) = (
-        poly.origin().as_dvec3(),
-        poly.e_u().as_dvec3(),
-        poly.e_v().as_dvec3(),
-    );
+    let (eu, ev) = (poly.e_u().as_dvec3(), poly.e_v().as_dvec3());
     let (eu, ev) = (eu - n * eu.dot(n), ev - n * ev.dot(n));
-    let origin = origin + n * (poly.plane_offset() as f64 - n.dot(origin));
-    let corners = [
+    let origin = padded_origin(poly);
+    [
         (lo[0], lo[1]),
         (hi[0], lo[1]),
         (hi[0], hi[1]),
         (lo[0], hi[1]),
     ]
-    .map(|(u, v)| {
-        let w = origin + eu * u + ev * v - o;
+    .map(|(u, v)| origin + eu * u + ev * v)
+}
+
+/// The polygon's origin (vertex 0) moved onto its plane.
+fn padded_origin(poly: &Polygon) -> DVec3 {
+    let (n, origin) = (poly.normal().as_dvec3(), poly.origin().as_dvec3());
+    origin + n * (poly.plane_offset() as f64 - n.dot(origin))
+}
+
+/// The cells whose rays from `o` may meet `poly`, in the local frame `[t, b, n]` of the
+/// patch; `num` is the grid's f32 plane term (`d − n·o`); `padded` its
+/// [`padded_corners`].
+fn region(poly: &Polygon, o: DVec3, num: f32, frame: [DVec3; 3], padded: &[DVec3; 4]) -> Region {
+    let corners = padded.map(|p| {
+        let w = p - o;
         DVec3::new(frame[0].dot(w), frame[1].dot(w), frame[2].dot(w))
     });
+    let origin = padded_origin(poly);
     // f32 rounding of the grid's terms, as a distance: a few hundred ulps of the
     // coordinates involved, hit distances included.
     let scale = corners.iter().map(|c| c.length()).fold(0.0, f64::max)

@@ -6,7 +6,7 @@ use rad_accel::VoxelGrid;
 use rad_core::PatchId;
 use rad_estimator::{estimate_rows, EstimateStats, Source};
 use rad_geometry::Scene;
-use rad_hemisphere::{compute_rows, Caster, Hemisphere, Row, Scan};
+use rad_hemisphere::{compute_rows, Caster, Hemisphere, Hierarchy, Row, Scan};
 
 /// Rows made by one method.
 #[derive(Clone, Debug)]
@@ -36,6 +36,10 @@ pub fn rows(
         CasterKind::Grid => {
             let grid = VoxelGrid::build(scene, &default_grid())?;
             rows_with(scene, &grid, hemi, method, patches, progress)
+        }
+        CasterKind::Hierarchy => {
+            let tree = Hierarchy::new(scene);
+            rows_with(scene, &tree, hemi, method, patches, progress)
         }
     }?;
     // (Form factors are sums of finite delta form factors: a non-finite one is a bug.)

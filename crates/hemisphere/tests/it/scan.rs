@@ -1,11 +1,12 @@
-//! The polygon scan gives the voxel grid's item buffers, to the bit.
+//! The polygon scan, and the scan over a hierarchy, give the voxel grid's item
+//! buffers, to the bit.
 
 use proptest::prelude::*;
 use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_geometry::scenes::{cornell_box, cube, loft, CORNELL_PATCH_MM};
 use rad_geometry::{Scene, SceneDesc};
-use rad_hemisphere::{Hemisphere, HemisphereConfig, ItemBuffer, ScanScratch};
+use rad_hemisphere::{Caster, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, ScanScratch};
 use rad_testkit::random_scene;
 
 fn grid(scene: &Scene, density: f64) -> VoxelGrid<'_> {
@@ -23,21 +24,28 @@ fn first_difference(a: &ItemBuffer, b: &ItemBuffer) -> Option<usize> {
         .find(|&k| a.patch[k] != b.patch[k] || a.dist[k].to_bits() != b.dist[k].to_bits())
 }
 
-/// Scans and casts `patches`; the index of a patch whose buffers differ, with the cell.
+/// Casts `patches` through the grid, scans them plainly and over a hierarchy; the first
+/// patch whose buffers differ, with the cell and the caster.
 fn compare(
     scene: &Scene,
     hemi: &Hemisphere,
     patches: &[u32],
     density: f64,
-) -> Option<(u32, usize)> {
+) -> Option<(u32, usize, &'static str)> {
     let grid = grid(scene, density);
+    let tree = Hierarchy::new(scene);
     let mut gs = grid.new_scratch();
     let mut ss = ScanScratch::default();
+    let mut hs = tree.scratch();
     let (mut a, mut b) = (ItemBuffer::default(), ItemBuffer::default());
     patches.iter().find_map(|&p| {
         hemi.cast(scene, &grid, p, &mut gs, &mut a);
         hemi.scan(scene, p, &mut ss, &mut b);
-        first_difference(&a, &b).map(|k| (p, k))
+        if let Some(k) = first_difference(&a, &b) {
+            return Some((p, k, "scan"));
+        }
+        tree.item_buffer(scene, hemi, p, &mut hs, &mut b);
+        first_difference(&a, &b).map(|k| (p, k, "hierarchy"))
     })
 }
 
@@ -71,6 +79,64 @@ proptest! {
         let patches: Vec<u32> = picks.iter().map(|i| i.index(scene.patches().len()) as u32).collect();
         prop_assert_eq!(compare(&scene, &hemi, &patches, density), None);
     }
+}
+
+/// Every polygon shrunk about its centre by its own factor in `scales`.
+fn shrink(desc: &mut SceneDesc, scales: &[f32]) {
+    for (p, &s) in desc.polygons.iter_mut().zip(scales.iter().cycle()) {
+        let c = p.vertices.iter().copied().sum::<glam::Vec3>() / p.vertices.len() as f32;
+        for v in &mut p.vertices {
+            *v = c + (*v - c) * s;
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Many small intersecting polygons (so that the hierarchy has depth, leaves
+    /// hidden behind others, subtrees behind a patch's plane and small footprints):
+    /// both scans still give the grid's cells.
+    #[test]
+    fn scans_match_the_grid_on_many_small_polygons(
+        desc in random_scene(160),
+        scales in proptest::collection::vec(0.03f32..0.6, 1..16),
+        n_theta in 10u32..60,
+        n_phi in 40u32..240,
+        picks in proptest::collection::vec(any::<prop::sample::Index>(), 1..6),
+    ) {
+        let mut desc = desc;
+        shrink(&mut desc, &scales);
+        let scene = Scene::new(desc);
+        prop_assume!(scene.is_ok());
+        let scene = scene.unwrap();
+        let hemi = Hemisphere::new(HemisphereConfig::exact(n_theta, n_phi)).unwrap();
+        let patches: Vec<u32> = picks.iter().map(|i| i.index(scene.patches().len()) as u32).collect();
+        prop_assert_eq!(compare(&scene, &hemi, &patches, 4.0), None);
+    }
+}
+
+/// The hierarchy's cost follows what is seen: in the room with a 20k-triangle blob,
+/// a hemisphere reaches a small share of the polygons.
+#[test]
+fn the_hierarchy_skips_what_is_hidden() {
+    let scene = Scene::new(rad_geometry::scenes::blob_room()).unwrap();
+    let hemi = Hemisphere::new(HemisphereConfig::exact(90, 360)).unwrap();
+    let tree = Hierarchy::new(&scene);
+    let mut hs = tree.scratch();
+    let mut buf = ItemBuffer::default();
+    let patches = spread(&scene, 12);
+    for &p in &patches {
+        tree.item_buffer(&scene, &hemi, p, &mut hs, &mut buf);
+    }
+    let per = hs.stats.polygons as f64 / patches.len() as f64;
+    let n = scene.polygons().len() as f64;
+    assert!(per < 0.25 * n, "{per} of {n} polygons reached a hemisphere");
+    assert!(
+        hs.stats.occluded > 0 && hs.stats.behind > 0,
+        "{:?}",
+        hs.stats
+    );
 }
 
 fn spread(scene: &Scene, k: usize) -> Vec<u32> {
@@ -262,8 +328,8 @@ fn scan_matches_the_grid_around_a_pentagon_off_its_plane() {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(120))]
 
-    /// The scan's single rays (improved estimation's real rays, boundary lists) give the
-    /// grid's answers to the bit: closest hits from a patch centre, all rays leaving its
+    /// The scan's and the hierarchy's single rays (improved estimation's real rays,
+    /// boundary lists) give the grid's answers to the bit: closest hits from a patch centre, all rays leaving its
     /// plane forwards (so both cull) or some not, and every crossing of a ray.
     #[test]
     fn scan_single_rays_match_the_grid(
@@ -272,9 +338,11 @@ proptest! {
         dirs in proptest::collection::vec(rad_testkit::unit_vector(), 1..40),
         density in prop_oneof![Just(0.5), Just(4.0)],
     ) {
-        use rad_hemisphere::{Caster, Scan};
+        use rad_hemisphere::Scan;
         let scene = Scene::new(desc).unwrap();
         let grid = grid(&scene, density);
+        let tree = Hierarchy::new(&scene);
+        let mut hs = tree.scratch();
         let patch = &scene.patches()[pick.index(scene.patches().len())];
         let n = scene.polygons()[patch.polygon as usize].normal();
         // Forward rays (as a hemisphere's), then the same with one turned back.
@@ -287,6 +355,8 @@ proptest! {
             grid.closest_hits_from(patch.center, patch.polygon, set, &mut gs, &mut a);
             Scan.closest_hits(&scene, patch.center, patch.polygon, set, &mut ss, &mut b);
             prop_assert_eq!(&a, &b);
+            tree.closest_hits(&scene, patch.center, patch.polygon, set, &mut hs, &mut b);
+            prop_assert_eq!(&a, &b);
         }
         let (mut ga, mut sa) = (Vec::new(), Vec::new());
         for &d in &mixed {
@@ -294,6 +364,8 @@ proptest! {
             ray.skip = patch.polygon;
             grid.all_hits(&ray, &mut gs, &mut ga);
             Scan.all_hits_along(&scene, &ray, &mut ss, &mut sa);
+            prop_assert_eq!(&ga, &sa);
+            tree.all_hits_along(&scene, &ray, &mut hs, &mut sa);
             prop_assert_eq!(&ga, &sa);
         }
     }

@@ -1,0 +1,790 @@
+//! The hierarchical caster: the polygon scan over a bounding volume hierarchy, so that
+//! a hemisphere's cost follows what it sees rather than what the scene holds.
+//!
+//! [`Hemisphere::scan`] tests every polygon on the cells of its angular box. On a
+//! triangle mesh most polygons are hidden behind nearer ones, and merely finding their
+//! boxes is most of the work. Here the polygons sit in a BVH (binned SAH over their
+//! padded boxes), walked from the patch centre near child first; a node is skipped when
+//! it lies wholly behind the patch's tangent plane (the grid's own culling, for a whole
+//! subtree at once), or when every cell its angular footprint covers already holds a hit
+//! strictly nearer than the node's nearest point (a depth test against per-tile maxima
+//! of the stored distances: tiles of one ring and [`TILE`] sectors). Leaves are resolved
+//! with the scan's own per-polygon work and f32 test, with ties in t going to the lower
+//! polygon id whatever the order polygons come in; so the item buffers are the grid's,
+//! bit for bit. Single rays (improved estimation's, boundary lists') walk the same tree.
+//!
+//! Why the skips are exact: a hit the grid accepts on a polygon lies, up to f32
+//! rounding, inside the polygon's padded (u, v) box on its plane (what the scan's
+//! angular boxes rest on), hence inside the node's box grown by the rounding slack; so
+//! its ray lies in the footprint of that grown box, and its t is at least the box's
+//! distance less the slack. A node is skipped only when every such cell already holds
+//! a hit nearer than that: the polygon would lose there anyway.
+
+use crate::scan::{padded_corners, ScanOrigin, Shape};
+use crate::{Caster, Hemisphere, ItemBuffer, ScanScratch};
+use glam::DVec3;
+use rad_core::{Hit, PatchId, PolygonId, Ray, Vec3, NO_POLYGON};
+use rad_geometry::{Polygon, PolygonTerms, Scene};
+use std::f64::consts::PI;
+use std::ops::Range;
+
+/// Sectors a depth tile spans (one ring high).
+pub const TILE: usize = 16;
+
+/// At most this many polygons a leaf.
+const LEAF_SIZE: usize = 4;
+
+/// SAH bins a split.
+const BINS: usize = 16;
+
+/// A node of the tree: its box (padded, in f64), the largest reach of its polygons,
+/// its polygons (`first..first + len` in tree order), and its children `left` and
+/// `left + 1` (`left` 0 for a leaf: the root is no one's child).
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    lo: DVec3,
+    hi: DVec3,
+    reach: f64,
+    first: u32,
+    len: u32,
+    left: u32,
+}
+
+/// What a polygon's visit reads, in tree order (one place in memory for a leaf).
+#[derive(Clone, Copy, Debug)]
+struct Item {
+    /// Its padded box.
+    lo: DVec3,
+    hi: DVec3,
+    reach: f64,
+    id: PolygonId,
+    shape: Shape,
+}
+
+/// The hierarchical exact caster (see the module documentation), built for one scene.
+#[derive(Clone, Debug)]
+pub struct Hierarchy {
+    nodes: Vec<Node>,
+    items: Vec<Item>,
+    /// Each item's hit-test terms (as [`Polygon::terms`] gives them).
+    terms: Vec<PolygonTerms>,
+    /// Each polygon's [`padded_corners`], by id, made once.
+    padded: Vec<[DVec3; 4]>,
+    /// The scene's largest coordinate plus its diagonal: the scale of f32 rounding.
+    scale: f64,
+    n_polygons: usize,
+}
+
+/// Work counts of the hierarchical caster, summed over calls.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HierarchyStats {
+    pub hemispheres: u64,
+    /// Nodes taken off the heap.
+    pub nodes: u64,
+    /// Nodes skipped because wholly behind the tangent plane.
+    pub behind: u64,
+    /// Nodes skipped because every cell of their footprint held a nearer hit.
+    pub occluded: u64,
+    /// Polygons visited in the nodes reached.
+    pub polygons: u64,
+    /// Of which tested on their node's footprint.
+    pub flat: u64,
+    /// Of which tested on their own footprint.
+    pub own: u64,
+}
+
+/// Per-thread working memory of [`Hierarchy`].
+#[derive(Clone, Debug, Default)]
+pub struct HierarchyScratch {
+    scan: ScanScratch,
+    /// The largest distance stored in each tile, valid unless `dirty`.
+    tile_max: Vec<f32>,
+    dirty: Vec<bool>,
+    stack: Vec<(u32, f64)>,
+    heap: std::collections::BinaryHeap<Near>,
+    /// The runs of cells of the node footprint last made, and of a polygon's own.
+    runs: Vec<Range<usize>>,
+    own_runs: Vec<Range<usize>>,
+    /// Sectors a ring, and tiles a ring, of the hemisphere being made.
+    np: usize,
+    per_ring: usize,
+    pub stats: HierarchyStats,
+}
+
+/// The cells a box's polygons may be seen on (runs, one or two a ring, in the vector
+/// given), and the distance a hit must be under to hide them there.
+#[derive(Clone, Copy, Debug)]
+struct Footprint {
+    cells: usize,
+    threshold: f64,
+}
+
+/// A node by its distance, ordered so that a max-heap gives the nearest first (ties:
+/// the lower node).
+#[derive(Clone, Copy, Debug)]
+struct Near(f64, u32);
+
+impl PartialEq for Near {
+    fn eq(&self, other: &Near) -> bool {
+        self.cmp(other).is_eq()
+    }
+}
+impl Eq for Near {}
+impl PartialOrd for Near {
+    fn partial_cmp(&self, other: &Near) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Near {
+    fn cmp(&self, other: &Near) -> std::cmp::Ordering {
+        other.0.total_cmp(&self.0).then(other.1.cmp(&self.1))
+    }
+}
+
+/// Subtrees whose footprint has at most this many cells are tested whole on it.
+const FLAT_CELLS: usize = 64;
+
+impl HierarchyScratch {
+    /// The scan's own counts (cell tests among them).
+    pub fn scan_stats(&self) -> crate::ScanStats {
+        self.scan.stats
+    }
+}
+
+impl Hierarchy {
+    /// Builds the tree over `scene`'s polygons.
+    pub fn new(scene: &Scene) -> Hierarchy {
+        let polygons = scene.polygons();
+        let padded: Vec<[DVec3; 4]> = polygons.iter().map(padded_corners).collect();
+        let boxes: Vec<(DVec3, DVec3)> = polygons
+            .iter()
+            .zip(&padded)
+            .map(|(p, c)| {
+                let pts = p
+                    .vertices()
+                    .iter()
+                    .map(|v| v.as_dvec3())
+                    .chain(c.iter().copied());
+                pts.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), q| {
+                    (lo.min(q), hi.max(q))
+                })
+            })
+            .collect();
+        let reach: Vec<f64> = polygons.iter().map(|p| p.reach() as f64).collect();
+        let mut order: Vec<PolygonId> = (0..polygons.len() as PolygonId).collect();
+        let empty = Node {
+            lo: DVec3::INFINITY,
+            hi: DVec3::NEG_INFINITY,
+            reach: 0.0,
+            first: 0,
+            len: 0,
+            left: 0,
+        };
+        let mut nodes = vec![empty];
+        if !polygons.is_empty() {
+            build(&boxes, &reach, &mut order, 0, 0, &mut nodes);
+        }
+        let items = order
+            .iter()
+            .map(|&id| {
+                let (lo, hi) = boxes[id as usize];
+                Item {
+                    lo,
+                    hi,
+                    reach: reach[id as usize],
+                    id,
+                    shape: Shape::of(&polygons[id as usize]),
+                }
+            })
+            .collect();
+        let terms = order
+            .iter()
+            .map(|&id| polygons[id as usize].terms())
+            .collect();
+        let root = nodes[0];
+        let scale = if polygons.is_empty() {
+            0.0
+        } else {
+            root.lo.abs().max(root.hi.abs()).max_element() + (root.hi - root.lo).length()
+        };
+        Hierarchy {
+            nodes,
+            items,
+            terms,
+            padded,
+            scale,
+            n_polygons: polygons.len(),
+        }
+    }
+
+    /// Nodes in the tree.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// The rounding slack, as a distance, of f32 terms for rays from `o`.
+    fn slack(&self, o: DVec3) -> f64 {
+        1e-5 * (self.scale + o.abs().max_element())
+    }
+
+    fn check(&self, scene: &Scene) {
+        assert_eq!(
+            scene.polygons().len(),
+            self.n_polygons,
+            "a Hierarchy is used with the scene it was built for"
+        );
+    }
+
+    /// The exact item buffer of `patch` (see the module documentation).
+    pub fn scan(
+        &self,
+        scene: &Scene,
+        hemi: &Hemisphere,
+        patch: PatchId,
+        s: &mut HierarchyScratch,
+        buf: &mut ItemBuffer,
+    ) {
+        self.check(scene);
+        let mut at = hemi.scan_begin(scene, patch, &mut s.scan);
+        // Subtrees behind the plane may be skipped whole only where the grid culls
+        // them in every ring.
+        let forward = Hemisphere::scan_all_forward(&s.scan);
+        let np = hemi.n_phi();
+        let per_ring = np.div_ceil(TILE);
+        (s.np, s.per_ring) = (np, per_ring);
+        let n_tiles = hemi.n_theta() * per_ring;
+        s.tile_max.clear();
+        s.tile_max.resize(n_tiles, f32::INFINITY);
+        s.dirty.clear();
+        s.dirty.resize(n_tiles, false);
+        s.stats.hemispheres += 1;
+        let tests_before = s.scan.hits.tests;
+        let slack = self.slack(at.o64);
+        let o = at.o64;
+        // Nearest node first (a min-heap on the box distance, ties by node).
+        s.heap.clear();
+        s.heap
+            .push(Near(box_distance(self.nodes[0].lo, self.nodes[0].hi, o), 0));
+        while let Some(Near(dmin, n)) = s.heap.pop() {
+            let node = self.nodes[n as usize];
+            s.stats.nodes += 1;
+            if forward && self.behind(&node, &at, slack) {
+                s.stats.behind += 1;
+                continue;
+            }
+            let foot = footprint(node.lo, node.hi, dmin, &at, hemi, slack, &mut s.runs);
+            if foot.is_some_and(|f| self.occluded(hemi, f.threshold, s)) {
+                s.stats.occluded += 1;
+                continue;
+            }
+            let flat = foot.is_some_and(|f| f.cells <= FLAT_CELLS);
+            if flat || node.left == 0 {
+                // A leaf, or few cells: every polygon of the subtree (on the node's
+                // cells, or each on its own).
+                let range = node.first as usize..(node.first + node.len) as usize;
+                self.visit(scene, hemi, range, flat, &mut at, forward, slack, s);
+            } else {
+                for c in [node.left, node.left + 1] {
+                    let child = &self.nodes[c as usize];
+                    s.heap.push(Near(box_distance(child.lo, child.hi, o), c));
+                }
+            }
+        }
+        s.scan.stats.tests += s.scan.hits.tests - tests_before;
+        hemi.scan_finish(scene, &at, &s.scan.hits, buf);
+    }
+
+    /// Tests the polygons of `range` (tree order): on the node's footprint (in
+    /// `s.runs`) with `flat`, else each on its own; but not those the grid culls
+    /// (wholly behind the patch's plane, with every ring forwards), and scanning as
+    /// [`Hemisphere::scan`] does those whose plane passes near the origin (it may
+    /// prove them unseen) or that are too near to have a footprint.
+    #[allow(clippy::too_many_arguments)]
+    fn visit(
+        &self,
+        scene: &Scene,
+        hemi: &Hemisphere,
+        range: Range<usize>,
+        flat: bool,
+        at: &mut ScanOrigin,
+        forward: bool,
+        slack: f64,
+        s: &mut HierarchyScratch,
+    ) {
+        let polygons = scene.polygons();
+        let (np, per_ring) = (s.np, s.per_ring);
+        if flat {
+            for r in &s.runs {
+                mark(&mut s.dirty, np, per_ring, r.clone());
+            }
+        }
+        for k in range {
+            let item = self.items[k];
+            if item.id == at.own {
+                continue;
+            }
+            s.stats.polygons += 1;
+            let poly = &polygons[item.id as usize];
+            let behind = self.item_behind(&item, poly, at, slack);
+            if behind && forward {
+                continue;
+            }
+            let terms = self.terms[k].at(at.o);
+            if terms.num == 0.0 || terms.num.is_nan() {
+                continue;
+            }
+            let own = if behind || (terms.num as f64).abs() <= 100.0 * slack {
+                None
+            } else if flat {
+                Some(false)
+            } else {
+                let dmin = box_distance(item.lo, item.hi, at.o64);
+                footprint(item.lo, item.hi, dmin, at, hemi, slack, &mut s.own_runs).map(|_| true)
+            };
+            let HierarchyScratch {
+                scan,
+                dirty,
+                runs,
+                own_runs,
+                stats,
+                ..
+            } = s;
+            match own {
+                None => {
+                    let padded = Some(&self.padded[item.id as usize]);
+                    hemi.scan_polygon::<true>(at, poly, item.id, padded, scan, |cells| {
+                        mark(dirty, np, per_ring, cells)
+                    });
+                }
+                Some(false) => {
+                    stats.flat += 1;
+                    scan.hits
+                        .test_runs(poly, item.id, &terms, &item.shape, runs);
+                }
+                Some(true) => {
+                    stats.own += 1;
+                    for r in own_runs.iter() {
+                        mark(dirty, np, per_ring, r.clone());
+                    }
+                    scan.hits
+                        .test_runs(poly, item.id, &terms, &item.shape, own_runs);
+                }
+            }
+        }
+    }
+
+    /// [`Polygon::wholly_behind`] the patch's plane, from the item's box where it
+    /// decides.
+    fn item_behind(&self, item: &Item, poly: &Polygon, at: &ScanOrigin, slack: f64) -> bool {
+        let n = at.own_n;
+        let (near, far) = corners_along(item.lo, item.hi, n);
+        let margin = 1e-6 * slack;
+        if (far - at.o64).dot(n) < -item.reach - margin {
+            true
+        } else if (near - at.o64).dot(n) >= -item.reach + margin {
+            false
+        } else {
+            poly.wholly_behind(at.o64, n)
+        }
+    }
+
+    /// True when every polygon of `node` is wholly behind the patch's plane by more
+    /// than its reach ([`Polygon::wholly_behind`]): the box's farthest corner forwards
+    /// is, with room for f64 rounding.
+    fn behind(&self, node: &Node, at: &ScanOrigin, slack: f64) -> bool {
+        let (_, far) = corners_along(node.lo, node.hi, at.own_n);
+        (far - at.o64).dot(at.own_n) < -node.reach - 1e-6 * slack
+    }
+
+    /// True when every cell of the footprint in `s.runs` already holds a hit nearer
+    /// than `threshold` (see the module documentation).
+    fn occluded(&self, hemi: &Hemisphere, threshold: f64, s: &mut HierarchyScratch) -> bool {
+        let np = hemi.n_phi();
+        let per_ring = np.div_ceil(TILE);
+        let best = s.scan.hits.best_t();
+        for r in &s.runs {
+            let ring = r.start / np;
+            let (a, b) = (r.start - ring * np, r.end - ring * np);
+            for t in a / TILE..=(b - 1) / TILE {
+                let k = ring * per_ring + t;
+                if s.dirty[k] {
+                    let cells = ring * np + t * TILE..ring * np + ((t + 1) * TILE).min(np);
+                    s.tile_max[k] = best[cells].iter().copied().fold(0.0, f32::max);
+                    s.dirty[k] = false;
+                }
+                if s.tile_max[k] as f64 >= threshold {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    /// Visits the polygons of every leaf whose box (grown by `slack`) the ray from `o`
+    /// along `d` enters before `limit`, near boxes first; each visit returns the new
+    /// limit.
+    fn walk_ray(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        slack: f64,
+        stack: &mut Vec<(u32, f64)>,
+        mut limit: f64,
+        mut leaf: impl FnMut(&[Item]) -> f64,
+    ) {
+        let inv = DVec3::ONE / d;
+        stack.clear();
+        if let Some(t) = slab(&self.nodes[0], o, inv, slack) {
+            stack.push((0, t));
+        }
+        while let Some((n, t_in)) = stack.pop() {
+            if t_in > limit {
+                continue;
+            }
+            let node = &self.nodes[n as usize];
+            if node.left == 0 {
+                limit = leaf(&self.items[node.first as usize..(node.first + node.len) as usize]);
+                continue;
+            }
+            let (a, b) = (node.left, node.left + 1);
+            let ta = slab(&self.nodes[a as usize], o, inv, slack);
+            let tb = slab(&self.nodes[b as usize], o, inv, slack);
+            match (ta, tb) {
+                (Some(ta), Some(tb)) if ta <= tb => stack.extend([(b, tb), (a, ta)]),
+                (Some(ta), Some(tb)) => stack.extend([(a, ta), (b, tb)]),
+                (Some(ta), None) => stack.push((a, ta)),
+                (None, Some(tb)) => stack.push((b, tb)),
+                (None, None) => {}
+            }
+        }
+    }
+}
+
+/// The corners of the box `lo..hi` least and farthest along `n`.
+fn corners_along(lo: DVec3, hi: DVec3, n: DVec3) -> (DVec3, DVec3) {
+    let pick = |k: usize, up: bool| if (n[k] > 0.0) == up { hi[k] } else { lo[k] };
+    (
+        DVec3::new(pick(0, false), pick(1, false), pick(2, false)),
+        DVec3::new(pick(0, true), pick(1, true), pick(2, true)),
+    )
+}
+
+/// The footprint of the box `lo..hi` (at distance `dmin`) from the patch centre, its
+/// runs into `runs`; None where the box is too near to have one worth testing.
+fn footprint(
+    lo: DVec3,
+    hi: DVec3,
+    dmin: f64,
+    at: &ScanOrigin,
+    hemi: &Hemisphere,
+    slack: f64,
+    runs: &mut Vec<Range<usize>>,
+) -> Option<Footprint> {
+    let threshold = dmin - 4.0 * slack;
+    if threshold <= 0.0 {
+        return None;
+    }
+    // The box's bounding sphere, grown by the slack, as seen from the origin.
+    let c = 0.5 * (lo + hi) - at.o64;
+    let r = 0.5 * (hi - lo).length() + slack;
+    let dist = c.length();
+    if dist <= r * (1.0 + 1e-9) {
+        return None;
+    }
+    let f = at.frame;
+    let cl = DVec3::new(f[0].dot(c), f[1].dot(c), f[2].dot(c));
+    let alpha = (r / dist).asin() + 1e-6 + 4.0 * slack / dmin;
+    let theta_c = cl.x.hypot(cl.y).atan2(cl.z);
+    let (lo, hi) = (theta_c - alpha, theta_c + alpha);
+    let spans = if lo <= 0.0 || hi >= PI {
+        None
+    } else {
+        let sb = alpha.sin() / theta_c.sin();
+        if sb >= 1.0 {
+            None
+        } else {
+            let (beta, phi_c) = (sb.asin() + 1e-9, cl.y.atan2(cl.x));
+            hemi.phi_spans(phi_c - beta, phi_c + beta)
+        }
+    };
+    let np = hemi.n_phi();
+    let spans = spans.unwrap_or([(0, np), (0, 0)]);
+    runs.clear();
+    let mut cells = 0;
+    for i in hemi.rings(lo.max(0.0), hi) {
+        for (a, b) in spans {
+            if b > a {
+                runs.push(i * np + a..i * np + b);
+                cells += b - a;
+            }
+        }
+    }
+    Some(Footprint { cells, threshold })
+}
+
+/// Marks the tiles of `cells` as changed.
+fn mark(dirty: &mut [bool], np: usize, per_ring: usize, cells: Range<usize>) {
+    let mut c = cells.start;
+    while c < cells.end {
+        let ring = c / np;
+        let end = cells.end.min((ring + 1) * np);
+        let (j0, j1) = (c - ring * np, end - 1 - ring * np);
+        dirty[ring * per_ring + j0 / TILE..=ring * per_ring + j1 / TILE].fill(true);
+        c = end;
+    }
+}
+
+/// The distance from `o` to the node's box (0 inside it).
+fn box_distance(lo: DVec3, hi: DVec3, o: DVec3) -> f64 {
+    (lo - o).max(o - hi).max(DVec3::ZERO).length()
+}
+
+/// Where the ray `o + t d` (`inv` = 1 / d) enters the node's box grown by `slack`, if
+/// it does at some t ≥ 0.
+fn slab(node: &Node, o: DVec3, inv: DVec3, slack: f64) -> Option<f64> {
+    let (lo, hi) = (node.lo - slack, node.hi + slack);
+    let (mut near, mut far) = (0.0f64, f64::INFINITY);
+    for k in 0..3 {
+        if inv[k].is_finite() {
+            let (a, b) = ((lo[k] - o[k]) * inv[k], (hi[k] - o[k]) * inv[k]);
+            near = near.max(a.min(b));
+            far = far.min(a.max(b));
+        } else if o[k] < lo[k] || o[k] > hi[k] {
+            // Parallel to this slab, and outside it.
+            return None;
+        }
+    }
+    (near <= far).then_some(near)
+}
+
+/// Builds the subtree of node `index` over `items[first..]` (as many as the node holds:
+/// all from `first` on at the root), binned SAH, and returns its box.
+fn build(
+    boxes: &[(DVec3, DVec3)],
+    reach: &[f64],
+    items: &mut [PolygonId],
+    first: usize,
+    index: usize,
+    nodes: &mut Vec<Node>,
+) {
+    let bounds = |ids: &[PolygonId]| {
+        ids.iter().fold(
+            (DVec3::INFINITY, DVec3::NEG_INFINITY, 0.0f64),
+            |(lo, hi, r), &i| {
+                let (a, b) = boxes[i as usize];
+                (lo.min(a), hi.max(b), r.max(reach[i as usize]))
+            },
+        )
+    };
+    let (lo, hi, r) = bounds(items);
+    nodes[index] = Node {
+        lo,
+        hi,
+        reach: r,
+        first: first as u32,
+        len: items.len() as u32,
+        left: 0,
+    };
+    if items.len() <= LEAF_SIZE {
+        return;
+    }
+    let centre = |i: PolygonId| {
+        let (a, b) = boxes[i as usize];
+        0.5 * (a + b)
+    };
+    let (clo, chi) = items
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &i| {
+            (lo.min(centre(i)), hi.max(centre(i)))
+        });
+    let extent = chi - clo;
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+    let mid = if extent[axis] > 0.0 {
+        sah_split(boxes, items, axis, clo[axis], extent[axis], &centre)
+    } else {
+        None
+    };
+    let mid = match mid {
+        Some(m) => m,
+        None => {
+            // No useful split by the centres: halve by count, in a fixed order.
+            items.sort_unstable_by(|&a, &b| {
+                centre(a)[axis].total_cmp(&centre(b)[axis]).then(a.cmp(&b))
+            });
+            items.len() / 2
+        }
+    };
+    let child = nodes.len();
+    nodes.extend([nodes[index]; 2]);
+    nodes[index].left = child as u32;
+    let (left, right) = items.split_at_mut(mid);
+    build(boxes, reach, left, first, child, nodes);
+    build(boxes, reach, right, first + mid, child + 1, nodes);
+}
+
+/// The binned SAH split of `items` along `axis` (centres from `lo` over `extent`):
+/// partitions them and returns the size of the left part, or None if no split is worth
+/// having.
+fn sah_split(
+    boxes: &[(DVec3, DVec3)],
+    items: &mut [PolygonId],
+    axis: usize,
+    lo: f64,
+    extent: f64,
+    centre: &impl Fn(PolygonId) -> DVec3,
+) -> Option<usize> {
+    let bin =
+        |i: PolygonId| (((centre(i)[axis] - lo) / extent * BINS as f64) as usize).min(BINS - 1);
+    let empty = (DVec3::INFINITY, DVec3::NEG_INFINITY, 0usize);
+    let mut bins = [empty; BINS];
+    for &i in items.iter() {
+        let (a, b) = boxes[i as usize];
+        let e = &mut bins[bin(i)];
+        *e = (e.0.min(a), e.1.max(b), e.2 + 1);
+    }
+    let area = |lo: DVec3, hi: DVec3| {
+        let d = (hi - lo).max(DVec3::ZERO);
+        d.x * d.y + d.y * d.z + d.z * d.x
+    };
+    // Areas and counts to the right of each boundary.
+    let mut right = [(0.0, 0usize); BINS];
+    let mut acc = empty;
+    for k in (1..BINS).rev() {
+        let e = bins[k];
+        acc = (acc.0.min(e.0), acc.1.max(e.1), acc.2 + e.2);
+        right[k] = (area(acc.0, acc.1), acc.2);
+    }
+    let mut best: Option<(f64, usize)> = None;
+    let mut acc = empty;
+    for k in 1..BINS {
+        let e = bins[k - 1];
+        acc = (acc.0.min(e.0), acc.1.max(e.1), acc.2 + e.2);
+        let (ra, rn) = right[k];
+        if acc.2 == 0 || rn == 0 {
+            continue;
+        }
+        let cost = area(acc.0, acc.1) * acc.2 as f64 + ra * rn as f64;
+        if best.is_none_or(|(c, _)| cost < c) {
+            best = Some((cost, k));
+        }
+    }
+    let (_, split) = best?;
+    // Partition, keeping a fixed order on each side.
+    items.sort_unstable_by_key(|&i| (bin(i) >= split, i));
+    Some(items.iter().filter(|&&i| bin(i) < split).count())
+}
+
+impl Caster for Hierarchy {
+    type Scratch = HierarchyScratch;
+
+    fn scratch(&self) -> HierarchyScratch {
+        HierarchyScratch::default()
+    }
+
+    fn item_buffer(
+        &self,
+        scene: &Scene,
+        hemi: &Hemisphere,
+        patch: PatchId,
+        scratch: &mut HierarchyScratch,
+        buf: &mut ItemBuffer,
+    ) {
+        self.scan(scene, hemi, patch, scratch, buf)
+    }
+
+    fn closest_hits(
+        &self,
+        scene: &Scene,
+        origin: Vec3,
+        skip: PolygonId,
+        dirs: &[Vec3],
+        scratch: &mut HierarchyScratch,
+        out: &mut Vec<Option<Hit>>,
+    ) {
+        self.check(scene);
+        out.clear();
+        let polygons = scene.polygons();
+        let own = polygons.get(skip as usize).map(|p| p.normal());
+        // The grid's culling: with every ray leaving the plane of `skip` forwards, a
+        // polygon wholly behind it is never tested.
+        let cull = own.filter(|&n| dirs.iter().all(|d| d.dot(n) > 0.0));
+        let o = origin.as_dvec3();
+        let slack = self.slack(o);
+        let hits = &mut scratch.scan.rays;
+        hits.begin_rays(dirs);
+        let stack = &mut scratch.stack;
+        for (k, d) in dirs.iter().enumerate() {
+            self.walk_ray(o, d.as_dvec3(), slack, stack, f64::INFINITY, |items| {
+                for item in items {
+                    let id = item.id;
+                    let poly: &Polygon = &polygons[id as usize];
+                    if id == skip || cull.is_some_and(|n| poly.wholly_behind(o, n.as_dvec3())) {
+                        continue;
+                    }
+                    hits.test_with::<true>(poly, id, &poly.terms().at(origin), k..k + 1);
+                }
+                // A polygon met no nearer than the best so far could still win a tie.
+                hits.best_t()[k] as f64 * (1.0 + 1e-6) + slack
+            });
+        }
+        let hits = &scratch.scan.rays;
+        out.extend((0..dirs.len()).map(|k| {
+            let (polygon, t, u, v) = hits.nearest(k);
+            (polygon != NO_POLYGON).then(|| Hit {
+                polygon,
+                u,
+                v,
+                t,
+                front: polygons[polygon as usize].normal().dot(dirs[k]) < 0.0,
+            })
+        }));
+    }
+
+    fn all_hits_along(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        scratch: &mut HierarchyScratch,
+        out: &mut Vec<Hit>,
+    ) {
+        self.check(scene);
+        out.clear();
+        let polygons = scene.polygons();
+        let o = ray.origin.as_dvec3();
+        let t_max = ray.t_max as f64;
+        let slack = self.slack(o);
+        self.walk_ray(
+            o,
+            ray.dir.as_dvec3(),
+            slack,
+            &mut scratch.stack,
+            t_max * (1.0 + 1e-6) + slack,
+            |items| {
+                for item in items {
+                    let id = item.id;
+                    if id == ray.skip {
+                        continue;
+                    }
+                    let poly = &polygons[id as usize];
+                    if let Some((t, u, v, front)) = poly.intersect(ray.origin, ray.dir, ray.t_max) {
+                        out.push(Hit {
+                            polygon: id,
+                            u,
+                            v,
+                            t,
+                            front,
+                        });
+                    }
+                }
+                t_max * (1.0 + 1e-6) + slack
+            },
+        );
+        out.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.polygon.cmp(&b.polygon)));
+    }
+}
