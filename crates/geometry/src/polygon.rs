@@ -225,6 +225,12 @@ impl Polygon {
             u.len() == out.len() && v.len() == out.len(),
             "one patch per (u, v)"
         );
+        if self.nu == 1 && self.nv == 1 {
+            // One cell, the polygon's one patch (a mesh's usual case): no lookup.
+            debug_assert_eq!(self.cell_patch, [self.first_patch]);
+            out.fill(self.first_patch);
+            return;
+        }
         rad_core::with_isa!(rad_core::Isa::detect(), |ISA| fn(
             poly: &Polygon = self,
             u: &[f32] = u,
