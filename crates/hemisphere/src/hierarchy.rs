@@ -23,7 +23,7 @@
 use crate::scan::{padded_corners, ScanOrigin, Shape};
 use crate::{Caster, Hemisphere, ItemBuffer, ScanScratch};
 use glam::DVec3;
-use rad_core::{Hit, PatchId, PolygonId, Ray, Vec3, NO_POLYGON};
+use rad_core::{Hit, PatchId, PolygonId, Ray, RayCast, Vec3, NO_POLYGON};
 use rad_geometry::{Polygon, PolygonTerms, Scene};
 use std::f64::consts::PI;
 use std::ops::Range;
@@ -42,12 +42,32 @@ const BINS: usize = 16;
 /// `left + 1` (`left` 0 for a leaf: the root is no one's child).
 #[derive(Clone, Copy, Debug)]
 struct Node {
-    lo: DVec3,
-    hi: DVec3,
-    reach: f64,
+    /// In f32, rounded outwards from the f64 box (so it still holds every polygon).
+    lo: Vec3,
+    hi: Vec3,
+    reach: f32,
     first: u32,
     len: u32,
     left: u32,
+}
+
+impl Node {
+    fn lo64(&self) -> DVec3 {
+        self.lo.as_dvec3()
+    }
+    fn hi64(&self) -> DVec3 {
+        self.hi.as_dvec3()
+    }
+}
+
+/// `x` in f32, rounded down (`up`: up), so that the f32 box holds the f64 one.
+fn outward(x: f64, up: bool) -> f32 {
+    let f = x as f32;
+    match (up, (f as f64).total_cmp(&x)) {
+        (true, std::cmp::Ordering::Less) => f.next_up(),
+        (false, std::cmp::Ordering::Greater) => f.next_down(),
+        _ => f,
+    }
 }
 
 /// What a polygon's visit reads, in tree order (one place in memory for a leaf).
@@ -103,7 +123,9 @@ pub struct HierarchyScratch {
     /// The largest distance stored in each tile, valid unless `dirty`.
     tile_max: Vec<f32>,
     dirty: Vec<bool>,
-    stack: Vec<(u32, f64)>,
+    stack: Vec<(u32, f32)>,
+    /// The item buffer's walk: nodes with their distances.
+    dfs: Vec<(u32, f64)>,
     /// The runs of cells of the node footprint last made, and of a polygon's own.
     runs: Vec<Range<usize>>,
     own_runs: Vec<Range<usize>>,
@@ -120,6 +142,33 @@ struct Footprint {
     cells: usize,
     threshold: f64,
 }
+
+/// A [`Hierarchy`] with its scene, as a ray caster ([`Hierarchy::rays`]): the same hits
+/// as the voxel grid and brute force, to the bit.
+#[derive(Clone, Copy, Debug)]
+pub struct HierarchyRays<'a> {
+    tree: &'a Hierarchy,
+    scene: &'a Scene,
+}
+
+impl RayCast for HierarchyRays<'_> {
+    type Scratch = Vec<(u32, f32)>;
+
+    fn new_scratch(&self) -> Vec<(u32, f32)> {
+        Vec::new()
+    }
+
+    fn closest_hit(&self, ray: &Ray, stack: &mut Vec<(u32, f32)>) -> Option<Hit> {
+        self.tree.closest_hit(self.scene, ray, stack)
+    }
+
+    fn all_hits(&self, ray: &Ray, stack: &mut Vec<(u32, f32)>, out: &mut Vec<Hit>) {
+        self.tree.all_hits(self.scene, ray, stack, out)
+    }
+}
+
+/// Nodes of at most this many polygons have them prefetched when taken.
+const PREFETCH: usize = 32;
 
 /// A polygon whose own footprint has more cells than this is scanned with its exact
 /// angular box instead ([`Hemisphere::scan`]'s), dearer to find but tighter.
@@ -157,8 +206,8 @@ impl Hierarchy {
         let reach: Vec<f64> = polygons.iter().map(|p| p.reach() as f64).collect();
         let mut order: Vec<PolygonId> = (0..polygons.len() as PolygonId).collect();
         let empty = Node {
-            lo: DVec3::INFINITY,
-            hi: DVec3::NEG_INFINITY,
+            lo: Vec3::INFINITY,
+            hi: Vec3::NEG_INFINITY,
             reach: 0.0,
             first: 0,
             len: 0,
@@ -190,7 +239,8 @@ impl Hierarchy {
         let scale = if polygons.is_empty() {
             0.0
         } else {
-            root.lo.abs().max(root.hi.abs()).max_element() + (root.hi - root.lo).length()
+            let (lo, hi) = (root.lo64(), root.hi64());
+            lo.abs().max(hi.abs()).max_element() + (hi - lo).length()
         };
         Hierarchy {
             nodes,
@@ -247,17 +297,31 @@ impl Hierarchy {
         let slack = self.slack(at.o64);
         let o = at.o64;
         // Depth first, the nearer child first (subtrees lie together in memory).
-        s.stack.clear();
-        s.stack
-            .push((0, box_distance(self.nodes[0].lo, self.nodes[0].hi, o)));
-        while let Some((n, dmin)) = s.stack.pop() {
+        s.dfs.clear();
+        s.dfs.push((
+            0,
+            box_distance(self.nodes[0].lo64(), self.nodes[0].hi64(), o),
+        ));
+        while let Some((n, dmin)) = s.dfs.pop() {
             let node = &self.nodes[n as usize];
             s.stats.nodes += 1;
+            if node.len as usize <= PREFETCH {
+                // Its polygons are likely read next: fetch them while the node's tests run.
+                self.prefetch(node.first as usize..(node.first + node.len) as usize);
+            }
             if forward && self.behind(&node, &at, slack) {
                 s.stats.behind += 1;
                 continue;
             }
-            let foot = footprint(node.lo, node.hi, dmin, &at, hemi, slack, &mut s.runs);
+            let foot = footprint(
+                node.lo64(),
+                node.hi64(),
+                dmin,
+                &at,
+                hemi,
+                slack,
+                &mut s.runs,
+            );
             if foot.is_some_and(|f| self.occluded(hemi, f.threshold, s)) {
                 s.stats.occluded += 1;
                 continue;
@@ -270,13 +334,14 @@ impl Hierarchy {
                 self.visit(scene, hemi, range, flat, &mut at, forward, slack, s);
             } else {
                 let (a, b) = (node.left, node.left + 1);
-                let da = box_distance(self.nodes[a as usize].lo, self.nodes[a as usize].hi, o);
-                let db = box_distance(self.nodes[b as usize].lo, self.nodes[b as usize].hi, o);
+                let (na, nb) = (&self.nodes[a as usize], &self.nodes[b as usize]);
+                let da = box_distance(na.lo64(), na.hi64(), o);
+                let db = box_distance(nb.lo64(), nb.hi64(), o);
                 // The nearer last, so that it is taken first.
                 if da <= db {
-                    s.stack.extend([(b, db), (a, da)]);
+                    s.dfs.extend([(b, db), (a, da)]);
                 } else {
-                    s.stack.extend([(a, da), (b, db)]);
+                    s.dfs.extend([(a, da), (b, db)]);
                 }
             }
         }
@@ -373,6 +438,118 @@ impl Hierarchy {
         }
     }
 
+    /// Every polygon `ray` crosses, sorted by t (ties by id): [`Scene::all_hits`]'s
+    /// answer, from the leaves whose boxes the ray enters.
+    fn all_hits(&self, scene: &Scene, ray: &Ray, stack: &mut Vec<(u32, f32)>, out: &mut Vec<Hit>) {
+        self.check(scene);
+        out.clear();
+        let polygons = scene.polygons();
+        let o = ray.origin.as_dvec3();
+        let t_max = ray.t_max as f64;
+        let slack = self.slack(o);
+        self.walk_ray(
+            ray.origin,
+            ray.dir,
+            slack,
+            stack,
+            t_max * (1.0 + 1e-6) + slack,
+            |range| {
+                for k in range {
+                    let id = self.items[k].id;
+                    if id == ray.skip {
+                        continue;
+                    }
+                    let h = self.terms[k].at(ray.origin);
+                    let poly = || &polygons[id as usize];
+                    let shape = &self.items[k].shape;
+                    if let Some((t, u, v, front)) = shape.hit_from(poly, &h, ray.dir, ray.t_max) {
+                        out.push(Hit {
+                            polygon: id,
+                            u,
+                            v,
+                            t,
+                            front,
+                        });
+                    }
+                }
+                t_max * (1.0 + 1e-6) + slack
+            },
+        );
+        out.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.polygon.cmp(&b.polygon)));
+    }
+
+    /// The closest hit of `ray` ([`RayCast::closest_hit`]'s answer: 0 < t < t_max, not
+    /// `ray.skip`, ties in t to the lower id), from the leaves whose boxes it enters.
+    fn closest_hit(&self, scene: &Scene, ray: &Ray, stack: &mut Vec<(u32, f32)>) -> Option<Hit> {
+        self.check(scene);
+        let polygons = scene.polygons();
+        let o = ray.origin.as_dvec3();
+        let slack = self.slack(o);
+        let limit = ray.t_max as f64 * (1.0 + 1e-6) + slack;
+        let mut best: Option<Hit> = None;
+        self.walk_ray(ray.origin, ray.dir, slack, stack, limit, |range| {
+            for k in range {
+                let item = &self.items[k];
+                if item.id == ray.skip {
+                    continue;
+                }
+                // (The polygon's own terms and shape, kept in tree order:
+                // `Polygon::intersect`'s answer.)
+                let h = self.terms[k].at(ray.origin);
+                let poly = || &polygons[item.id as usize];
+                if let Some((t, u, v, front)) = item.shape.hit_from(poly, &h, ray.dir, ray.t_max) {
+                    if best.is_none_or(|b| t < b.t || (t == b.t && item.id < b.polygon)) {
+                        best = Some(Hit {
+                            polygon: item.id,
+                            u,
+                            v,
+                            t,
+                            front,
+                        });
+                    }
+                }
+            }
+            // A polygon met no nearer than the best so far could still win a tie.
+            best.map_or(limit, |b| b.t as f64 * (1.0 + 1e-6) + slack)
+        });
+        best
+    }
+
+    /// The tree as a [`RayCast`] on `scene` (the scene it was built for): single rays
+    /// through it, for rendering.
+    pub fn rays<'a>(&'a self, scene: &'a Scene) -> HierarchyRays<'a> {
+        self.check(scene);
+        HierarchyRays { tree: self, scene }
+    }
+
+    /// Asks the CPU to bring the items and terms of `range` into cache.
+    #[inline]
+    fn prefetch(&self, range: Range<usize>) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            let lines = |bytes: &[u8]| {
+                for k in (0..bytes.len()).step_by(64) {
+                    // SAFETY: a prefetch only hints; the address is inside the slice.
+                    unsafe { _mm_prefetch::<_MM_HINT_T0>(bytes.as_ptr().add(k).cast()) };
+                }
+            };
+            let items = &self.items[range.clone()];
+            let terms = &self.terms[range];
+            // SAFETY: plain data viewed as bytes, for the addresses alone.
+            unsafe {
+                lines(std::slice::from_raw_parts(
+                    items.as_ptr().cast(),
+                    std::mem::size_of_val(items),
+                ));
+                lines(std::slice::from_raw_parts(
+                    terms.as_ptr().cast(),
+                    std::mem::size_of_val(terms),
+                ));
+            }
+        }
+    }
+
     /// [`Polygon::wholly_behind`] the patch's plane, from the item's box where it
     /// decides.
     fn item_behind(&self, item: &Item, poly: &Polygon, at: &ScanOrigin, slack: f64) -> bool {
@@ -392,8 +569,8 @@ impl Hierarchy {
     /// than its reach ([`Polygon::wholly_behind`]): the box's farthest corner forwards
     /// is, with room for f64 rounding.
     fn behind(&self, node: &Node, at: &ScanOrigin, slack: f64) -> bool {
-        let (_, far) = corners_along(node.lo, node.hi, at.own_n);
-        (far - at.o64).dot(at.own_n) < -node.reach - 1e-6 * slack
+        let (_, far) = corners_along(node.lo64(), node.hi64(), at.own_n);
+        (far - at.o64).dot(at.own_n) < -(node.reach as f64) - 1e-6 * slack
     }
 
     /// True when every cell of the footprint in `s.runs` already holds a hit nearer
@@ -425,14 +602,16 @@ impl Hierarchy {
     /// limit.
     fn walk_ray(
         &self,
-        o: DVec3,
-        d: DVec3,
+        o: Vec3,
+        d: Vec3,
         slack: f64,
-        stack: &mut Vec<(u32, f64)>,
-        mut limit: f64,
-        mut leaf: impl FnMut(&[Item]) -> f64,
+        stack: &mut Vec<(u32, f32)>,
+        limit: f64,
+        mut leaf: impl FnMut(Range<usize>) -> f64,
     ) {
-        let inv = DVec3::ONE / d;
+        let inv = inverse(d);
+        let slack = outward(slack, true);
+        let mut limit = outward(limit, true);
         stack.clear();
         if let Some(t) = slab(&self.nodes[0], o, inv, slack) {
             stack.push((0, t));
@@ -443,7 +622,10 @@ impl Hierarchy {
             }
             let node = &self.nodes[n as usize];
             if node.left == 0 {
-                limit = leaf(&self.items[node.first as usize..(node.first + node.len) as usize]);
+                limit = outward(
+                    leaf(node.first as usize..(node.first + node.len) as usize),
+                    true,
+                );
                 continue;
             }
             let (a, b) = (node.left, node.left + 1);
@@ -684,22 +866,26 @@ fn box_distance(lo: DVec3, hi: DVec3, o: DVec3) -> f64 {
     (lo - o).max(o - hi).max(DVec3::ZERO).length()
 }
 
-/// Where the ray `o + t d` (`inv` = 1 / d) enters the node's box grown by `slack`, if
-/// it does at some t ≥ 0.
-fn slab(node: &Node, o: DVec3, inv: DVec3, slack: f64) -> Option<f64> {
-    let (lo, hi) = (node.lo - slack, node.hi + slack);
-    let (mut near, mut far) = (0.0f64, f64::INFINITY);
-    for k in 0..3 {
-        if inv[k].is_finite() {
-            let (a, b) = ((lo[k] - o[k]) * inv[k], (hi[k] - o[k]) * inv[k]);
-            near = near.max(a.min(b));
-            far = far.min(a.max(b));
-        } else if o[k] < lo[k] || o[k] > hi[k] {
-            // Parallel to this slab, and outside it.
-            return None;
-        }
-    }
+/// Where the ray `o + t d` (`inv` = 1 / d, see [`inverse`]) enters the node's box grown
+/// by `slack`, if it does at some t ≥ 0.
+///
+/// In f32: its rounding (a few ulps of the coordinates) is far under the slack the box
+/// is grown by, so no box a hit lies in is missed, and the entry is never later than a
+/// hit inside the box.
+#[inline]
+fn slab(node: &Node, o: Vec3, inv: Vec3, slack: f32) -> Option<f32> {
+    let a = (node.lo - slack - o) * inv;
+    let b = (node.hi + slack - o) * inv;
+    let near = a.min(b).max_element().max(0.0);
+    let far = a.max(b).min_element();
     (near <= far).then_some(near)
+}
+
+/// 1 / d, with a zero component taken as ±1e-30 so that no slab product is NaN (a ray
+/// along a slab then has it ±∞ or huge on both sides: inside it, or never).
+fn inverse(d: Vec3) -> Vec3 {
+    let fix = |x: f32| if x == 0.0 { 1e-30f32.copysign(x) } else { x };
+    Vec3::ONE / Vec3::new(fix(d.x), fix(d.y), fix(d.z))
 }
 
 /// Builds the subtree of node `index` over `items[first..]` (as many as the node holds:
@@ -723,9 +909,17 @@ fn build(
     };
     let (lo, hi, r) = bounds(items);
     nodes[index] = Node {
-        lo,
-        hi,
-        reach: r,
+        lo: Vec3::new(
+            outward(lo.x, false),
+            outward(lo.y, false),
+            outward(lo.z, false),
+        ),
+        hi: Vec3::new(
+            outward(hi.x, true),
+            outward(hi.y, true),
+            outward(hi.z, true),
+        ),
+        reach: outward(r, true),
         first: first as u32,
         len: items.len() as u32,
         left: 0,
@@ -865,14 +1059,14 @@ impl Caster for Hierarchy {
         hits.begin_rays(dirs);
         let stack = &mut scratch.stack;
         for (k, d) in dirs.iter().enumerate() {
-            self.walk_ray(o, d.as_dvec3(), slack, stack, f64::INFINITY, |items| {
-                for item in items {
-                    let id = item.id;
+            self.walk_ray(origin, *d, slack, stack, f64::INFINITY, |range| {
+                for i in range {
+                    let id = self.items[i].id;
                     let poly: &Polygon = &polygons[id as usize];
                     if id == skip || cull.is_some_and(|n| poly.wholly_behind(o, n.as_dvec3())) {
                         continue;
                     }
-                    hits.test_with::<true>(poly, id, &poly.terms().at(origin), k..k + 1);
+                    hits.test_with::<true>(poly, id, &self.terms[i].at(origin), k..k + 1);
                 }
                 // A polygon met no nearer than the best so far could still win a tie.
                 hits.best_t()[k] as f64 * (1.0 + 1e-6) + slack
@@ -898,39 +1092,7 @@ impl Caster for Hierarchy {
         scratch: &mut HierarchyScratch,
         out: &mut Vec<Hit>,
     ) {
-        self.check(scene);
-        out.clear();
-        let polygons = scene.polygons();
-        let o = ray.origin.as_dvec3();
-        let t_max = ray.t_max as f64;
-        let slack = self.slack(o);
-        self.walk_ray(
-            o,
-            ray.dir.as_dvec3(),
-            slack,
-            &mut scratch.stack,
-            t_max * (1.0 + 1e-6) + slack,
-            |items| {
-                for item in items {
-                    let id = item.id;
-                    if id == ray.skip {
-                        continue;
-                    }
-                    let poly = &polygons[id as usize];
-                    if let Some((t, u, v, front)) = poly.intersect(ray.origin, ray.dir, ray.t_max) {
-                        out.push(Hit {
-                            polygon: id,
-                            u,
-                            v,
-                            t,
-                            front,
-                        });
-                    }
-                }
-                t_max * (1.0 + 1e-6) + slack
-            },
-        );
-        out.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.polygon.cmp(&b.polygon)));
+        self.all_hits(scene, ray, &mut scratch.stack, out)
     }
 }
 

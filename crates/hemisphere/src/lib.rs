@@ -17,7 +17,7 @@ mod scan;
 
 pub use caster::{Caster, Scan};
 pub use cells::{delta_form_factors, DeltaRule, Hemisphere, HemisphereConfig, MAX_CELLS};
-pub use hierarchy::{Hierarchy, HierarchyScratch, HierarchyStats, TILE};
+pub use hierarchy::{Hierarchy, HierarchyRays, HierarchyScratch, HierarchyStats, TILE};
 pub use lambert::point_to_polygon_form_factor;
 pub use rad_core::{BACK, ESCAPED};
 pub use row::{compute_rows, ItemBuffer, Row, RowAccumulator};

@@ -650,6 +650,37 @@ pub(crate) enum Shape {
 }
 
 impl Shape {
+    /// [`Polygon::hit_from`] of the polygon of this shape (its terms for the ray's
+    /// origin `h`), reading the polygon (through `poly`) only where the shape alone
+    /// does not decide: the same answer, to the bit.
+    #[inline]
+    pub(crate) fn hit_from<'p>(
+        &self,
+        poly: impl FnOnce() -> &'p Polygon,
+        h: &OriginTerms,
+        d: Vec3,
+        t_max: f32,
+    ) -> Option<rad_geometry::PolygonHit> {
+        let denom = h.denom(d.x, d.y, d.z);
+        let t = h.num / denom;
+        if !(t > 0.0 && t < t_max) {
+            return None;
+        }
+        let (u, v) = h.uv(t, d.x, d.y, d.z);
+        let inside = match self {
+            // `contains_uv` of a parallelogram is its (u, v) bounds, the very f32 sums.
+            Shape::Parallelogram if denom < 0.0 => h.in_bounds(u, v),
+            Shape::Triangle(tri) => {
+                let limit = if denom < 0.0 { -tri.eps } else { tri.eps };
+                tri.edges
+                    .iter()
+                    .all(|e| e[0] * u + e[1] * v + e[2] >= limit)
+            }
+            _ => poly().accepts(denom, false, u, v),
+        };
+        inside.then_some((t, u, v, denom < 0.0))
+    }
+
     pub(crate) fn of(poly: &Polygon) -> Shape {
         match poly.edge_functions() {
             _ if poly.is_parallelogram() => Shape::Parallelogram,

@@ -156,9 +156,10 @@ mod tests {
     }
 }
 
-/// Renders the radiosities `b` of `scene` from `view` (rays through the voxel grid) and
-/// writes the EXR to `exr`, and a PNG preview to `png` if given, at `exposure` (else
-/// [`auto_exposure`]'s).
+/// Renders the radiosities `b` of `scene` from `view` (rays through the voxel grid, or
+/// from [`crate::CasterKind::HIERARCHY_FROM`] polygons up through the hierarchy: the
+/// same hits, to the bit) and writes the EXR to `exr`, and a PNG preview to `png` if
+/// given, at `exposure` (else [`auto_exposure`]'s).
 pub fn render_to_files(
     scene: &rad_geometry::Scene,
     b: &[[f64; 3]],
@@ -168,11 +169,57 @@ pub fn render_to_files(
     png: Option<&Path>,
     exposure: Option<f32>,
 ) -> Result<(), Error> {
-    let grid = rad_accel::VoxelGrid::build(scene, &crate::default_grid())?;
-    let img = rad_render::render(scene, &grid, view, b, config)?;
+    let img = render_image(scene, b, view, config)?;
     write_exr(exr, &img)?;
     if let Some(p) = png {
         write_png(p, &img, exposure.unwrap_or_else(|| auto_exposure(&img)))?;
     }
     Ok(())
+}
+
+/// The image of the radiosities `b` of `scene` from `view`, through the fastest ray
+/// caster for the scene (as [`render_to_files`] makes it).
+pub fn render_image(
+    scene: &rad_geometry::Scene,
+    b: &[[f64; 3]],
+    view: &rad_render::View,
+    config: &rad_render::RenderConfig,
+) -> Result<rad_render::Image, Error> {
+    Ok(
+        if crate::CasterKind::fastest_for(scene.polygons().len()) == crate::CasterKind::Hierarchy {
+            let tree = rad_hemisphere::Hierarchy::new(scene);
+            rad_render::render(scene, &tree.rays(scene), view, b, config)?
+        } else {
+            let grid = rad_accel::VoxelGrid::build(scene, &crate::default_grid())?;
+            rad_render::render(scene, &grid, view, b, config)?
+        },
+    )
+}
+
+#[cfg(test)]
+mod render_tests {
+    /// The hierarchy and the voxel grid render the same image, to the bit (the hits are
+    /// the same): the Cornell box, both shadings.
+    #[test]
+    fn both_casters_render_the_same_image() {
+        let scene = rad_geometry::Scene::new(rad_geometry::scenes::cornell_box(
+            rad_geometry::scenes::CORNELL_PATCH_MM,
+        ))
+        .unwrap();
+        let view = rad_render::View::of_scene(&scene, 48, 40).unwrap();
+        let b: Vec<[f64; 3]> = (0..scene.patches().len())
+            .map(|k| [k as f64, (k % 5) as f64, 1.0])
+            .collect();
+        let grid = rad_accel::VoxelGrid::build(&scene, &crate::default_grid()).unwrap();
+        let tree = rad_hemisphere::Hierarchy::new(&scene);
+        for shading in [rad_render::Shading::Flat, rad_render::Shading::Smooth] {
+            let config = rad_render::RenderConfig {
+                samples: 2,
+                shading,
+            };
+            let a = rad_render::render(&scene, &grid, &view, &b, &config).unwrap();
+            let h = rad_render::render(&scene, &tree.rays(&scene), &view, &b, &config).unwrap();
+            assert_eq!(a, h);
+        }
+    }
 }

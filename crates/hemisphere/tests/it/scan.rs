@@ -367,6 +367,15 @@ proptest! {
             prop_assert_eq!(&ga, &sa);
             tree.all_hits_along(&scene, &ray, &mut hs, &mut sa);
             prop_assert_eq!(&ga, &sa);
+            // The tree as a ray caster (rendering): closest hits, and with a bound.
+            let rays = tree.rays(&scene);
+            let mut stack = rays.new_scratch();
+            prop_assert_eq!(grid.closest_hit(&ray, &mut gs), rays.closest_hit(&ray, &mut stack));
+            ray.t_max = 0.7;
+            prop_assert_eq!(grid.closest_hit(&ray, &mut gs), rays.closest_hit(&ray, &mut stack));
+            rays.all_hits(&ray, &mut stack, &mut sa);
+            grid.all_hits(&ray, &mut gs, &mut ga);
+            prop_assert_eq!(&ga, &sa);
         }
     }
 }
