@@ -54,6 +54,7 @@ pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Resul
     write("cube_error.json", r.estimation_json(&provenance))?;
     write("loft_speedup.json", r.loft_speedup_json(&provenance))?;
     write("radiosity.json", r.radiosity_json(&provenance))?;
+    write("scaling.json", r.scaling_json(&provenance))?;
     // Images: EXR, and PNG previews; the loft's renders share the exact one's exposure.
     let mut shared: Option<f32> = None;
     for (stem, img, group) in &r.radiosity.images {

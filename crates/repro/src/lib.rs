@@ -8,6 +8,7 @@ pub mod estimation;
 pub mod loft;
 pub mod reciprocity;
 pub mod reproduce;
+pub mod scaling;
 pub mod speedup;
 pub mod stats;
 

@@ -96,6 +96,8 @@ pub struct Reproduction {
     pub loft: LoftChecks,
     pub loft_seconds: f64,
     pub radiosity: crate::speedup::Radiosity,
+    /// Exact hemispheres as scenes grow (scaling.json).
+    pub scaling: crate::scaling::Scaling,
 }
 
 /// Runs the experiments; `progress(stage, step, of)` as they go.
@@ -119,8 +121,10 @@ pub fn run(
     let loft_seconds = t.elapsed().as_secs_f64();
     let estimation = estimation(quick, progress)?;
     let radiosity = crate::speedup::run(quick, progress)?;
+    let scaling = crate::scaling::run(quick, progress)?;
     Ok(Reproduction {
         radiosity,
+        scaling,
         estimation,
         quick,
         cube: cube_acc,
@@ -250,6 +254,24 @@ impl Reproduction {
             quick: self.quick,
             note: LOFT_NOTE,
             loft: &self.radiosity.loft,
+        };
+        serde_json::to_string_pretty(&r).expect("results serialise") + "\n"
+    }
+
+    /// scaling.json: ms a hemisphere against polygon count, every caster, every scene.
+    pub fn scaling_json(&self, provenance: &Provenance) -> String {
+        #[derive(Serialize)]
+        struct S<'a> {
+            provenance: &'a Provenance,
+            quick: bool,
+            note: &'static str,
+            scaling: &'a crate::scaling::Scaling,
+        }
+        let r = S {
+            provenance,
+            quick: self.quick,
+            note: "One thread. ms_per_hemisphere: median over the patches of one exact item buffer; ms_per_row: rows of whole windows around the same patches through rad_pipeline::rows (building the caster included), centres through the scene's default caster. On the mesh scenes every polygon holds one patch, so nothing is estimated (issue 15).",
+            scaling: &self.scaling,
         };
         serde_json::to_string_pretty(&r).expect("results serialise") + "\n"
     }
@@ -393,10 +415,55 @@ impl Reproduction {
         self.report_estimation(w);
         self.report_radiosity(w);
         self.report_loft(w);
+        self.report_scaling(w);
         s
     }
 
     /// The loft's closure and exact-hemisphere timings.
+    fn report_scaling(&self, w: &mut String) {
+        let sc = &self.scaling;
+        let _ = writeln!(
+            w,
+            "\n## Exact hemispheres as scenes grow (scaling.json)\n\nOne thread, {}x{}, the median over {} patches of one item buffer, in ms; every caster's item buffers compared bit for bit. Rows: whole windows around the same patches, centres through the scene's default caster, ms a row.\n",
+            sc.resolution[0],
+            sc.resolution[1],
+            sc.scenes.first().map_or(0, |s| s.hemispheres)
+        );
+        let _ = writeln!(w, "| scene | polygons | grid | scan | hierarchy | same bits | default | exact rows | faithful rows (estimated) | improved rows (estimated) |");
+        let _ = writeln!(w, "|---|---|---|---|---|---|---|---|---|---|");
+        for s in &sc.scenes {
+            let ms = |c: &str| {
+                s.casters
+                    .iter()
+                    .find(|t| t.caster == c)
+                    .map_or(f64::NAN, |t| t.ms_per_hemisphere)
+            };
+            let m = |k: usize| {
+                s.modes.get(k).map_or(String::new(), |m| {
+                    if k == 0 {
+                        format!("{:.2}", m.ms_per_row)
+                    } else {
+                        format!("{:.2} ({} of {})", m.ms_per_row, m.estimated, m.rows)
+                    }
+                })
+            };
+            let _ = writeln!(
+                w,
+                "| {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {} | {} | {} |",
+                s.scene,
+                s.polygons,
+                ms("grid"),
+                ms("scan"),
+                ms("hierarchy"),
+                if s.identical { "yes" } else { "**no**" },
+                s.default_caster,
+                m(0),
+                m(1),
+                m(2)
+            );
+        }
+    }
+
     fn report_loft(&self, w: &mut String) {
         let l = &self.loft;
         let _ = writeln!(w, "\n## Loft (ours; the report never published its loft)\n");
