@@ -141,6 +141,23 @@ pub struct HierarchyScratch {
 struct Footprint {
     cells: usize,
     threshold: f64,
+    /// Rings `i0..=i1` (none if i0 > i1), each over the sectors of `spans` (widened).
+    rings: (usize, usize),
+    spans: [(usize, usize); 2],
+}
+
+impl Footprint {
+    /// Its runs of cells, into `runs`.
+    fn fill(&self, np: usize, runs: &mut Vec<Range<usize>>) {
+        runs.clear();
+        for i in self.rings.0..=self.rings.1 {
+            for (a, b) in self.spans {
+                if b > a {
+                    runs.push(i * np + a..i * np + b);
+                }
+            }
+        }
+    }
 }
 
 /// A [`Hierarchy`] with its scene, as a ray caster ([`Hierarchy::rays`]): the same hits
@@ -313,20 +330,16 @@ impl Hierarchy {
                 s.stats.behind += 1;
                 continue;
             }
-            let foot = footprint(
-                node.lo64(),
-                node.hi64(),
-                dmin,
-                &at,
-                hemi,
-                slack,
-                &mut s.runs,
-            );
-            if foot.is_some_and(|f| self.occluded(hemi, f.threshold, s)) {
+            let foot = footprint(node.lo64(), node.hi64(), dmin, &at, hemi, slack);
+            if foot.is_some_and(|f| self.occluded(hemi, &f, s)) {
                 s.stats.occluded += 1;
                 continue;
             }
-            let flat = foot.is_some_and(|f| f.cells <= FLAT_CELLS);
+            let flat = foot.filter(|f| f.cells <= FLAT_CELLS);
+            if let Some(f) = flat {
+                f.fill(np, &mut s.runs);
+            }
+            let flat = flat.is_some();
             if flat || node.left == 0 {
                 // A leaf, or few cells: every polygon of the subtree (on the node's
                 // cells, or each on its own).
@@ -399,10 +412,12 @@ impl Hierarchy {
                 });
                 tight
                     .or_else(|| {
-                        footprint(item.lo, item.hi, dmin, at, hemi, slack, &mut s.own_runs)
-                            .map(|f| f.cells)
+                        // A large footprint pays for the scan's own tighter box.
+                        let f = footprint(item.lo, item.hi, dmin, at, hemi, slack)
+                            .filter(|f| f.cells <= REGION_CELLS)?;
+                        f.fill(s.np, &mut s.own_runs);
+                        Some(f.cells)
                     })
-                    // A large footprint pays for the scan's own tighter box.
                     .filter(|&cells| cells <= REGION_CELLS)
                     .map(|_| true)
             };
@@ -575,22 +590,26 @@ impl Hierarchy {
 
     /// True when every cell of the footprint in `s.runs` already holds a hit nearer
     /// than `threshold` (see the module documentation).
-    fn occluded(&self, hemi: &Hemisphere, threshold: f64, s: &mut HierarchyScratch) -> bool {
+    fn occluded(&self, hemi: &Hemisphere, foot: &Footprint, s: &mut HierarchyScratch) -> bool {
         let np = hemi.n_phi();
         let per_ring = np.div_ceil(TILE);
+        let threshold = foot.threshold;
         let best = s.scan.hits.best_t();
-        for r in &s.runs {
-            let ring = r.start / np;
-            let (a, b) = (r.start - ring * np, r.end - ring * np);
-            for t in a / TILE..=(b - 1) / TILE {
-                let k = ring * per_ring + t;
-                if s.dirty[k] {
-                    let cells = ring * np + t * TILE..ring * np + ((t + 1) * TILE).min(np);
-                    s.tile_max[k] = best[cells].iter().copied().fold(0.0, f32::max);
-                    s.dirty[k] = false;
+        for ring in foot.rings.0..=foot.rings.1 {
+            for &(a, b) in &foot.spans {
+                if b <= a {
+                    continue;
                 }
-                if s.tile_max[k] as f64 >= threshold {
-                    return false;
+                for t in a / TILE..=(b - 1) / TILE {
+                    let k = ring * per_ring + t;
+                    if s.dirty[k] {
+                        let cells = ring * np + t * TILE..ring * np + ((t + 1) * TILE).min(np);
+                        s.tile_max[k] = best[cells].iter().copied().fold(0.0, f32::max);
+                        s.dirty[k] = false;
+                    }
+                    if s.tile_max[k] as f64 >= threshold {
+                        return false;
+                    }
                 }
             }
         }
@@ -651,8 +670,8 @@ fn corners_along(lo: DVec3, hi: DVec3, n: DVec3) -> (DVec3, DVec3) {
     )
 }
 
-/// The footprint of the box `lo..hi` (at distance `dmin`) from the patch centre, its
-/// runs into `runs`; None where the box is too near to have one worth testing.
+/// The footprint of the box `lo..hi` (at distance `dmin`) from the patch centre; None
+/// where the box is too near to have one worth testing.
 fn footprint(
     lo: DVec3,
     hi: DVec3,
@@ -660,7 +679,6 @@ fn footprint(
     at: &ScanOrigin,
     hemi: &Hemisphere,
     slack: f64,
-    runs: &mut Vec<Range<usize>>,
 ) -> Option<Footprint> {
     let threshold = dmin - 4.0 * slack;
     if threshold <= 0.0 {
@@ -695,19 +713,20 @@ fn footprint(
         }
     };
     let np = hemi.n_phi();
-    let spans = spans.unwrap_or([(0, np), (0, 0)]);
-    runs.clear();
-    let mut cells = 0;
-    for i in hemi.rings(lo.max(0.0), hi) {
-        for (a, b) in spans {
-            if b > a {
-                let (a, b) = widen(a, b, np);
-                runs.push(i * np + a..i * np + b);
-                cells += b - a;
-            }
-        }
-    }
-    Some(Footprint { cells, threshold })
+    let spans =
+        spans
+            .unwrap_or([(0, np), (0, 0)])
+            .map(|(a, b)| if b > a { widen(a, b, np) } else { (0, 0) });
+    let rings = hemi.rings(lo.max(0.0), hi);
+    let (i0, i1) = (*rings.start(), *rings.end());
+    let width: usize = spans.iter().map(|(a, b)| b - a).sum();
+    let cells = if i0 > i1 { 0 } else { (i1 - i0 + 1) * width };
+    Some(Footprint {
+        cells,
+        threshold,
+        rings: (i0, i1),
+        spans,
+    })
 }
 
 /// A triangle's vertices and how far its inside test reaches past them: twice its
