@@ -4,9 +4,11 @@
 
 mod brute;
 mod grid;
+mod wide;
 
 pub use brute::BruteForce;
 pub use grid::{GridResolution, GridScratch, VoxelGrid, VoxelGridConfig, MAX_VOXELS};
+pub use wide::WideBvh;
 
 /// Errors from building an accelerator.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -10,7 +10,7 @@ mod scene;
 pub mod scenes;
 
 pub use error::{Error, PolygonProblem};
-pub use hit_test::{OriginTerms, PolygonTerms};
+pub use hit_test::{OriginTerms, PolygonTerms, Shape, Triangle};
 pub use polygon::{
     Patch, Polygon, PolygonHit, MAX_CELLS_PER_POLYGON, MAX_COORDINATE, MIN_POLYGON_SIZE,
     MIN_POLYGON_SIZE_RELATIVE, PLANARITY_TOLERANCE,

@@ -20,11 +20,11 @@
 //! distance less the slack. A node is skipped only when every such cell already holds
 //! a hit nearer than that: the polygon would lose there anyway.
 
-use crate::scan::{padded_corners, ScanOrigin, Shape};
+use crate::scan::{padded_corners, ScanOrigin};
 use crate::{Caster, Hemisphere, ItemBuffer, ScanScratch};
 use glam::DVec3;
 use rad_core::{Hit, PatchId, PolygonId, Ray, RayCast, Vec3, NO_POLYGON};
-use rad_geometry::{Polygon, PolygonTerms, Scene};
+use rad_geometry::{Polygon, PolygonTerms, Scene, Shape};
 use std::f64::consts::PI;
 use std::ops::Range;
 

@@ -1,8 +1,8 @@
 //! `render/<scene>/640x480/<caster>`: the loft from its camera, 640 × 480, 2 × 2 rays a
 //! pixel, smooth shading, on one thread: the 185-polygon loft through the voxel grid
-//! (the way it was rendered before the hierarchy) and the hierarchy, and the same room
-//! as 115,200 triangles (`loft_fine`) through both; every patch given a radiosity by
-//! its id, so that shading does real work.
+//! (the way it was rendered before), the hierarchy's tree and the wide BVH (what
+//! `render_image` uses), and the same room as 115,200 triangles (`loft_fine`) through
+//! all three; every patch given a radiosity by its id, so that shading does real work.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use rad_accel::VoxelGrid;
@@ -33,6 +33,7 @@ fn bench(c: &mut Criterion) {
         let grid = VoxelGrid::build(&scene, &default_grid()).expect("a grid");
         let tree = Hierarchy::new(&scene);
         let rays = tree.rays(&scene);
+        let wide = rad_accel::WideBvh::new(&scene);
         group.bench_function(
             BenchmarkId::from_parameter(format!("{name}/640x480/grid")),
             |bench| {
@@ -49,6 +50,16 @@ fn bench(c: &mut Criterion) {
                 bench.iter(|| {
                     pool.install(|| {
                         black_box(rad_render::render(&scene, &rays, &view, &b, &config))
+                    })
+                })
+            },
+        );
+        group.bench_function(
+            BenchmarkId::from_parameter(format!("{name}/640x480/wide")),
+            |bench| {
+                bench.iter(|| {
+                    pool.install(|| {
+                        black_box(rad_render::render(&scene, &wide, &view, &b, &config))
                     })
                 })
             },

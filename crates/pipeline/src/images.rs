@@ -156,7 +156,7 @@ mod tests {
     }
 }
 
-/// Renders the radiosities `b` of `scene` from `view` (rays through the hierarchy: see
+/// Renders the radiosities `b` of `scene` from `view` (rays through the wide BVH: see
 /// [`render_image`]) and writes the EXR to `exr`, and a PNG preview to `png` if given,
 /// at `exposure` (else [`auto_exposure`]'s).
 pub fn render_to_files(
@@ -176,31 +176,24 @@ pub fn render_to_files(
     Ok(())
 }
 
-/// The image of the radiosities `b` of `scene` from `view`, its rays through the
-/// hierarchy (`rad_hemisphere::Hierarchy::rays`), which gives the voxel grid's hits to
-/// the bit and is the faster of the two on every bench scene (one thread, 640 × 480,
-/// 2 × 2 rays a pixel: the loft 0.19 s against 0.32 s, the 115,200-triangle loft 0.48 s
-/// against 1.76 s; `cargo bench -p rad-pipeline --bench render`).
+/// The image of the radiosities `b` of `scene` from `view`, its rays through the wide
+/// BVH ([`rad_accel::WideBvh`]), which gives the voxel grid's hits to the bit and is
+/// the fastest of the casters on every bench scene (see `cargo bench -p rad-pipeline
+/// --bench render`).
 pub fn render_image(
     scene: &rad_geometry::Scene,
     b: &[[f64; 3]],
     view: &rad_render::View,
     config: &rad_render::RenderConfig,
 ) -> Result<rad_render::Image, Error> {
-    let tree = rad_hemisphere::Hierarchy::new(scene);
-    Ok(rad_render::render(
-        scene,
-        &tree.rays(scene),
-        view,
-        b,
-        config,
-    )?)
+    let bvh = rad_accel::WideBvh::new(scene);
+    Ok(rad_render::render(scene, &bvh, view, b, config)?)
 }
 
 #[cfg(test)]
 mod render_tests {
-    /// The hierarchy and the voxel grid render the same image, to the bit (the hits are
-    /// the same): the Cornell box, both shadings.
+    /// The wide BVH, the hierarchy and the voxel grid render the same image, to the bit
+    /// (the hits are the same): the Cornell box, both shadings.
     #[test]
     fn both_casters_render_the_same_image() {
         let scene = rad_geometry::Scene::new(rad_geometry::scenes::cornell_box(
@@ -221,6 +214,9 @@ mod render_tests {
             let a = rad_render::render(&scene, &grid, &view, &b, &config).unwrap();
             let h = rad_render::render(&scene, &tree.rays(&scene), &view, &b, &config).unwrap();
             assert_eq!(a, h);
+            let bvh = rad_accel::WideBvh::new(&scene);
+            let w = rad_render::render(&scene, &bvh, &view, &b, &config).unwrap();
+            assert_eq!(a, w);
         }
     }
 }

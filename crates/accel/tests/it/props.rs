@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 use proptest::prelude::*;
-use rad_accel::{BruteForce, GridResolution, VoxelGrid, VoxelGridConfig};
+use rad_accel::{BruteForce, GridResolution, VoxelGrid, VoxelGridConfig, WideBvh};
 use rad_core::{Hit, Ray, RayCast, NO_POLYGON};
 use rad_geometry::Scene;
 use rad_testkit::{random_scene, ray};
@@ -60,6 +60,17 @@ proptest! {
                 grid.all_hits(&r, &mut gs, &mut ha);
                 brute.all_hits(&r, &mut bs, &mut hb);
                 prop_assert_eq!(ha.iter().map(|h| h.polygon).collect::<Vec<_>>(), hb.iter().map(|h| h.polygon).collect::<Vec<_>>());
+            }
+        }
+        // The wide BVH: the very hits of brute force (polygon, t, u, v, side).
+        let wide = WideBvh::new(&scene);
+        for &(o, d) in &rays {
+            for t_max in [f32::INFINITY, 1.5] {
+                let r = Ray { t_max, ..Ray::new(o, d) };
+                prop_assert_eq!(wide.closest_hit(&r, &mut ()), brute.closest_hit(&r, &mut bs));
+                wide.all_hits(&r, &mut (), &mut ha);
+                brute.all_hits(&r, &mut bs, &mut hb);
+                prop_assert_eq!(&ha, &hb);
             }
         }
     }
