@@ -79,14 +79,46 @@ impl View {
 
     /// The ray through image point (x, y) in pixels (0, 0 the top-left corner).
     pub fn ray(&self, x: f32, y: f32) -> Ray {
+        self.rays().ray(x, y)
+    }
+
+    /// What every ray of the view shares, made once (the same rays, to the bit).
+    fn rays(&self) -> ViewRays {
         let w = (self.look_at - self.position).normalize();
         let u = w.cross(self.up).normalize();
-        let v = u.cross(w);
-        let half = (0.5 * self.fov_y).tan();
-        let aspect = self.width as f32 / self.height as f32;
-        let sx = (2.0 * x / self.width as f32 - 1.0) * half * aspect;
-        let sy = (1.0 - 2.0 * y / self.height as f32) * half;
-        Ray::new(self.position, (w + sx * u + sy * v).normalize())
+        ViewRays {
+            position: self.position,
+            w,
+            u,
+            v: u.cross(w),
+            half: (0.5 * self.fov_y).tan(),
+            aspect: self.width as f32 / self.height as f32,
+            width: self.width as f32,
+            height: self.height as f32,
+        }
+    }
+}
+
+/// A view's camera frame and scale ([`View::ray`]'s terms that do not depend on the
+/// pixel).
+#[derive(Clone, Copy, Debug)]
+struct ViewRays {
+    position: Vec3,
+    w: Vec3,
+    u: Vec3,
+    v: Vec3,
+    half: f32,
+    aspect: f32,
+    width: f32,
+    height: f32,
+}
+
+impl ViewRays {
+    #[inline]
+    fn ray(&self, x: f32, y: f32) -> Ray {
+        let sx = (2.0 * x / self.width - 1.0) * self.half * self.aspect;
+        let sy = (1.0 - 2.0 * y / self.height) * self.half;
+        Ray::new(self.position, (self.w + sx * self.u + sy * self.v).normalize())
     }
 }
 
@@ -230,6 +262,7 @@ pub fn render<C: RayCast>(
             }
         }
     };
+    let rays = view.rays();
     let pixels: Vec<[f32; 3]> = (0..view.height)
         .into_par_iter()
         .map_init(
@@ -242,7 +275,7 @@ pub fn render<C: RayCast>(
                             for sx in 0..n {
                                 let px = x as f32 + (sx as f32 + 0.5) / n as f32;
                                 let py = y as f32 + (sy as f32 + 0.5) / n as f32;
-                                let v = shade(&view.ray(px, py), scratch);
+                                let v = shade(&rays.ray(px, py), scratch);
                                 for c in 0..3 {
                                     s[c] += v[c];
                                 }
