@@ -118,7 +118,10 @@ impl ViewRays {
     fn ray(&self, x: f32, y: f32) -> Ray {
         let sx = (2.0 * x / self.width - 1.0) * self.half * self.aspect;
         let sy = (1.0 - 2.0 * y / self.height) * self.half;
-        Ray::new(self.position, (self.w + sx * self.u + sy * self.v).normalize())
+        Ray::new(
+            self.position,
+            (self.w + sx * self.u + sy * self.v).normalize(),
+        )
     }
 }
 
