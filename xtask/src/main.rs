@@ -2,6 +2,7 @@
 //! experiments and writes results/; `cargo xtask scenes` rewrites bench-scenes/ from
 //! the builders.
 
+mod plot;
 mod reproduce;
 #[cfg(test)]
 mod tidy;

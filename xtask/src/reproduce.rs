@@ -55,6 +55,11 @@ pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Resul
     write("loft_speedup.json", r.loft_speedup_json(&provenance))?;
     write("radiosity.json", r.radiosity_json(&provenance))?;
     write("scaling.json", r.scaling_json(&provenance))?;
+    let plot = crate::plot::scaling_png(&r.scaling)?;
+    let path = out.join("scaling.png");
+    write_atomic(&path, |w| w.write_all(&plot))
+        .with_context(|| format!("writing {}", path.display()))?;
+    eprintln!("  wrote {}", path.display());
     // Images: EXR, and PNG previews; the loft's renders share the exact one's exposure.
     let mut shared: Option<f32> = None;
     for (stem, img, group) in &r.radiosity.images {
