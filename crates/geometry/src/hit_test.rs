@@ -75,6 +75,19 @@ impl OriginTerms {
         )
     }
 
+    /// Where the ray along `d` meets the plane, if at `0 < t < t_max`: (t, u, v, n·d),
+    /// before any inside test.
+    #[inline(always)]
+    pub fn along(&self, d: Vec3, t_max: f32) -> Option<(f32, f32, f32, f32)> {
+        let denom = self.denom(d.x, d.y, d.z);
+        let t = self.num / denom;
+        if !(t > 0.0 && t < t_max) {
+            return None;
+        }
+        let (u, v) = self.uv(t, d.x, d.y, d.z);
+        Some((t, u, v, denom))
+    }
+
     /// Whether (u, v) lies within the (u, v) bounds (for a front-facing parallelogram,
     /// that is the whole inside test: see [`Polygon::uv_bounds`]).
     #[inline(always)]
@@ -116,12 +129,7 @@ impl Polygon {
     /// `o`: (t, u, v, front).
     #[inline]
     pub fn hit_from(&self, h: &OriginTerms, d: Vec3, t_max: f32) -> Option<crate::PolygonHit> {
-        let denom = h.denom(d.x, d.y, d.z);
-        let t = h.num / denom;
-        if !(t > 0.0 && t < t_max) {
-            return None;
-        }
-        let (u, v) = h.uv(t, d.x, d.y, d.z);
+        let (t, u, v, denom) = h.along(d, t_max)?;
         self.accepts(denom, false, u, v)
             .then_some((t, u, v, denom < 0.0))
     }
@@ -152,12 +160,7 @@ impl Shape {
         d: Vec3,
         t_max: f32,
     ) -> Option<crate::PolygonHit> {
-        let denom = h.denom(d.x, d.y, d.z);
-        let t = h.num / denom;
-        if !(t > 0.0 && t < t_max) {
-            return None;
-        }
-        let (u, v) = h.uv(t, d.x, d.y, d.z);
+        let (t, u, v, denom) = h.along(d, t_max)?;
         let inside = match self {
             // `contains_uv` of a parallelogram is its (u, v) bounds, the very f32 sums.
             Shape::Parallelogram if denom < 0.0 => h.in_bounds(u, v),

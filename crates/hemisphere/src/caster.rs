@@ -8,7 +8,7 @@
 //! same culling and the same tie rule (the lower polygon id).
 
 use crate::{Hemisphere, ItemBuffer, ScanScratch};
-use rad_core::{Hit, PatchId, PolygonId, Ray, RayCast, Vec3, NO_POLYGON};
+use rad_core::{Hit, PatchId, PolygonId, Ray, RayCast, Vec3};
 use rad_geometry::Scene;
 
 /// Fills exact item buffers of one scene's hemispheres, with per-thread scratch.
@@ -144,16 +144,7 @@ impl Caster for Scan {
                 0..dirs.len(),
             );
         }
-        out.extend((0..dirs.len()).map(|k| {
-            let (polygon, t, u, v) = hits.nearest(k);
-            (polygon != NO_POLYGON).then(|| Hit {
-                polygon,
-                u,
-                v,
-                t,
-                front: polygons[polygon as usize].normal().dot(dirs[k]) < 0.0,
-            })
-        }));
+        hits.hits_into(polygons, dirs, out);
     }
 
     fn all_hits_along(&self, scene: &Scene, ray: &Ray, _: &mut ScanScratch, out: &mut Vec<Hit>) {

@@ -20,10 +20,10 @@
 //! distance less the slack. A node is skipped only when every such cell already holds
 //! a hit nearer than that: the polygon would lose there anyway.
 
-use crate::scan::{padded_corners, ScanOrigin};
+use crate::scan::{edge_reach, padded_corners, pole_dip, wrap, PoleDip, ScanOrigin};
 use crate::{Caster, Hemisphere, ItemBuffer, ScanScratch};
 use glam::DVec3;
-use rad_core::{Hit, PatchId, PolygonId, Ray, RayCast, Vec3, NO_POLYGON};
+use rad_core::{Hit, PatchId, PolygonId, Ray, RayCast, Vec3};
 use rad_geometry::{Polygon, PolygonTerms, Scene, Shape};
 use std::f64::consts::PI;
 use std::ops::Range;
@@ -733,15 +733,7 @@ fn footprint(
 /// reach over the sine of its sharpest half-angle (as the scan pads its boxes).
 fn triangle_reach(poly: &Polygon) -> Option<([Vec3; 3], f32)> {
     let v: [Vec3; 3] = poly.vertices().try_into().ok()?;
-    let w = v.map(|p| p.as_dvec3());
-    let mut min_sin_half = 1.0f64;
-    for k in 0..3 {
-        let (a, b, c) = (w[(k + 2) % 3], w[k], w[(k + 1) % 3]);
-        let (e0, e1) = ((a - b).normalize_or_zero(), (c - b).normalize_or_zero());
-        let angle = e0.dot(e1).clamp(-1.0, 1.0).acos();
-        min_sin_half = min_sin_half.min((0.5 * angle).sin());
-    }
-    let grow = 2.0 * poly.reach() as f64 / min_sin_half.max(1e-6);
+    let grow = edge_reach(poly, &v.map(|p| p.as_dvec3()));
     Some((v, (grow * (1.0 + 1e-6)) as f32 * 1.001))
 }
 
@@ -798,21 +790,12 @@ fn triangle_footprint(
     // θ is least at a vertex or where an edge's great circle comes nearest the pole.
     let mut theta_lo = theta.iter().copied().fold(PI, f64::min);
     for k in 0..3 {
-        let (a, b) = (dirs[k], dirs[(k + 1) % 3]);
-        let m = a.cross(b);
-        let ml = m.length();
-        if ml < 1e-12 {
-            continue;
-        }
-        let m = m / ml;
-        let q = DVec3::Z - m * m.z;
-        let ql = q.length();
-        if ql < 1e-12 {
-            return None;
-        }
-        let q = q / ql;
-        if a.cross(q).dot(m) >= 0.0 && q.cross(b).dot(m) >= 0.0 {
-            theta_lo = theta_lo.min(atan2_bounded((q.x * q.x + q.y * q.y).sqrt(), q.z));
+        match pole_dip(dirs[k], dirs[(k + 1) % 3]) {
+            PoleDip::Ends => {}
+            PoleDip::At(q) => {
+                theta_lo = theta_lo.min(atan2_bounded((q.x * q.x + q.y * q.y).sqrt(), q.z))
+            }
+            PoleDip::Unknown => return None,
         }
     }
     let theta_lo = theta_lo - margin;
@@ -839,16 +822,6 @@ fn triangle_footprint(
         }
     }
     Some(cells)
-}
-
-/// `x` wrapped into (−π, π].
-fn wrap(x: f64) -> f64 {
-    let y = x.rem_euclid(std::f64::consts::TAU);
-    if y > PI {
-        y - std::f64::consts::TAU
-    } else {
-        y
-    }
 }
 
 /// Lanes a run of cells is widened to a multiple of (testing more cells is always
@@ -1091,17 +1064,7 @@ impl Caster for Hierarchy {
                 hits.best_t()[k] as f64 * (1.0 + 1e-6) + slack
             });
         }
-        let hits = &scratch.scan.rays;
-        out.extend((0..dirs.len()).map(|k| {
-            let (polygon, t, u, v) = hits.nearest(k);
-            (polygon != NO_POLYGON).then(|| Hit {
-                polygon,
-                u,
-                v,
-                t,
-                front: polygons[polygon as usize].normal().dot(dirs[k]) < 0.0,
-            })
-        }));
+        scratch.scan.rays.hits_into(polygons, dirs, out);
     }
 
     fn all_hits_along(

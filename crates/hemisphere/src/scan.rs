@@ -17,7 +17,7 @@
 
 use crate::{Hemisphere, ItemBuffer};
 use glam::{DVec3, Vec3};
-use rad_core::{with_isa, Isa, PatchId, PolygonId, BACK, ESCAPED, NO_POLYGON};
+use rad_core::{with_isa, Hit, Isa, PatchId, PolygonId, BACK, ESCAPED, NO_POLYGON};
 use rad_geometry::{OriginTerms, Polygon, Scene, Shape, Triangle};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::ops::Range;
@@ -405,6 +405,26 @@ impl NearestHits {
         self.best_v.resize(n, 0.0);
     }
 
+    /// The nearest hits of the rays of [`NearestHits::begin_rays`] (`dirs` their
+    /// directions), as [`rad_core::RayCast::closest_hits_from`] answers, into `out`.
+    pub(crate) fn hits_into(
+        &self,
+        polygons: &[Polygon],
+        dirs: &[Vec3],
+        out: &mut Vec<Option<Hit>>,
+    ) {
+        out.extend((0..dirs.len()).map(|k| {
+            let (polygon, t, u, v) = self.nearest(k);
+            (polygon != NO_POLYGON).then(|| Hit {
+                polygon,
+                u,
+                v,
+                t,
+                front: polygons[polygon as usize].normal().dot(dirs[k]) < 0.0,
+            })
+        }));
+    }
+
     /// Cell `c`'s nearest hit so far: (polygon or [`NO_POLYGON`], t, u, v).
     #[inline]
     pub fn nearest(&self, c: usize) -> (PolygonId, f32, f32, f32) {
@@ -546,6 +566,21 @@ fn test_span<const ANY_ORDER: bool>(
     if simple || !mask.contains(&1) {
         return;
     }
+    accept_masked(poly, id, h, [dx, dy, dz], [bt, bu, bv], bp, mask);
+}
+
+/// The scalar rest of a masked span: each cell `mask` marks takes the hit if the
+/// polygon's own inside test accepts it (the same f32 terms as the vectorised part).
+#[inline(always)]
+fn accept_masked(
+    poly: &Polygon,
+    id: PolygonId,
+    h: &OriginTerms,
+    [dx, dy, dz]: [&[f32]; 3],
+    [bt, bu, bv]: [&mut [f32]; 3],
+    bp: &mut [u32],
+    mask: &[u8],
+) {
     for k in 0..mask.len() {
         if mask[k] == 0 {
             continue;
@@ -620,18 +655,7 @@ fn test_runs(
             }
             let mask = &mut mask[..r.len()];
             span::<false, true>(h, id, dx, dy, dz, bt, bp, bu, bv, mask);
-            for k in 0..mask.len() {
-                if mask[k] == 0 {
-                    continue;
-                }
-                let (x, y, z) = (dx[k], dy[k], dz[k]);
-                let denom = h.denom(x, y, z);
-                let t = h.num / denom;
-                let (u, v) = h.uv(t, x, y, z);
-                if poly.accepts(denom, false, u, v) {
-                    (bt[k], bp[k], bu[k], bv[k]) = (t, id, u, v);
-                }
-            }
+            accept_masked(poly, id, h, [dx, dy, dz], [bt, bu, bv], bp, mask);
         }
     });
 }
@@ -828,20 +852,7 @@ fn region(poly: &Polygon, o: DVec3, num: f32, frame: [DVec3; 3], padded: &[DVec3
     // θ is least at a vertex or where an edge's great circle comes nearest the pole.
     let mut theta_lo = dirs.iter().map(|&d| theta_of(d)).fold(PI, f64::min);
     for k in 0..dirs.len() {
-        let (a, b) = (dirs[k], dirs[(k + 1) % dirs.len()]);
-        let m = a.cross(b);
-        let ml = m.length();
-        if ml < 1e-12 {
-            continue;
-        }
-        let m = m / ml;
-        let q = DVec3::Z - m * m.z;
-        let ql = q.length();
-        if ql < 1e-12 {
-            continue;
-        }
-        let q = q / ql;
-        if a.cross(q).dot(m) >= 0.0 && q.cross(b).dot(m) >= 0.0 {
+        if let PoleDip::At(q) = pole_dip(dirs[k], dirs[(k + 1) % dirs.len()]) {
             theta_lo = theta_lo.min(theta_of(q));
         }
     }
@@ -928,8 +939,53 @@ fn cannot_hit_near_plane(poly: &Polygon, h: &OriginTerms, own_n: DVec3, min_cos:
     outside > 1.01 * t_max + 2.0 * poly.reach() as f64 + 1e-5 * (1.0 + scale)
 }
 
+/// How far past its edges (world units) the inside tests of `poly`, whose corners in
+/// order are `corners`, reach: twice its reach over the sine of its sharpest half-angle.
+pub(crate) fn edge_reach(poly: &Polygon, corners: &[DVec3]) -> f64 {
+    let n = corners.len();
+    let mut min_sin_half = 1.0f64;
+    for k in 0..n {
+        let (a, b, c) = (corners[(k + n - 1) % n], corners[k], corners[(k + 1) % n]);
+        let (e0, e1) = ((a - b).normalize_or_zero(), (c - b).normalize_or_zero());
+        let angle = e0.dot(e1).clamp(-1.0, 1.0).acos();
+        min_sin_half = min_sin_half.min((0.5 * angle).sin());
+    }
+    2.0 * poly.reach() as f64 / min_sin_half.max(1e-6)
+}
+
+/// Where the great-circle arc from unit direction `a` to `b` comes nearest the pole
+/// (+z), if that is inside the arc: [`PoleDip::At`] the direction there,
+/// [`PoleDip::Ends`] if the ends are nearest, [`PoleDip::Unknown`] if the arc's circle
+/// passes through the pole (no single nearest point).
+pub(crate) fn pole_dip(a: DVec3, b: DVec3) -> PoleDip {
+    let m = a.cross(b);
+    let ml = m.length();
+    if ml < 1e-12 {
+        return PoleDip::Ends;
+    }
+    let m = m / ml;
+    let q = DVec3::Z - m * m.z;
+    let ql = q.length();
+    if ql < 1e-12 {
+        return PoleDip::Unknown;
+    }
+    let q = q / ql;
+    if a.cross(q).dot(m) >= 0.0 && q.cross(b).dot(m) >= 0.0 {
+        PoleDip::At(q)
+    } else {
+        PoleDip::Ends
+    }
+}
+
+/// See [`pole_dip`].
+pub(crate) enum PoleDip {
+    Ends,
+    At(DVec3),
+    Unknown,
+}
+
 /// `x` wrapped into (−π, π].
-fn wrap(x: f64) -> f64 {
+pub(crate) fn wrap(x: f64) -> f64 {
     let y = x.rem_euclid(TAU);
     if y > PI {
         y - TAU
@@ -954,15 +1010,7 @@ fn padded_uv_box(poly: &Polygon) -> ([f64; 2], [f64; 2]) {
         .iter()
         .map(|p| poly.point(p[0] as f32, p[1] as f32).as_dvec3())
         .collect();
-    let n = world.len();
-    let mut min_sin_half = 1.0f64;
-    for k in 0..n {
-        let (a, b, c) = (world[(k + n - 1) % n], world[k], world[(k + 1) % n]);
-        let (e0, e1) = ((a - b).normalize_or_zero(), (c - b).normalize_or_zero());
-        let angle = e0.dot(e1).clamp(-1.0, 1.0).acos();
-        min_sin_half = min_sin_half.min((0.5 * angle).sin());
-    }
-    let reach = 2.0 * poly.reach() as f64 / min_sin_half.max(1e-6);
+    let reach = edge_reach(poly, &world);
     let (du, dv) = poly.dual_basis();
     let pad = [
         reach * du.as_dvec3().length(),
