@@ -7,10 +7,10 @@ use rad_pipeline::images::render_to_files;
 use rad_pipeline::output::{
     write_atomic, write_patches_json, write_row_json, write_rows_footer, write_rows_header,
 };
-use rad_pipeline::solve::{read_solution, solve_rows, SolveOptions};
+use rad_pipeline::solve::{read_solution, solve_scene, SolveOptions};
 use rad_pipeline::{
-    parse_patch_list, parse_resolution, CasterKind, Hemisphere, HemisphereConfig, Mode,
-    RenderConfig, RowMethod, Rows, SceneFile, Shading, SolveConfig, Solver, View,
+    parse_patch_list, parse_resolution, CasterKind, EstimateStats, Hemisphere, HemisphereConfig,
+    Mode, RenderConfig, RowMethod, SceneFile, Shading, SolveConfig, Solver, View,
 };
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -314,11 +314,10 @@ fn row_bar(hemi: &Hemisphere, method: RowMethod, n_rows: usize) -> ProgressBar {
 }
 
 /// What a run of estimated rows did, on standard error.
-fn report_estimates(rows: &Rows) {
-    if rows.method.is_exact() {
+fn report_estimates(method: RowMethod, s: &EstimateStats) {
+    if method.is_exact() {
         return;
     }
-    let s = &rows.stats;
     eprintln!(
         "{} rows cast exactly (window centres), {} estimated, {} cast exactly after needing real rays for over {:.0} % of their cells ({} real rays)",
         s.exact,
@@ -343,7 +342,7 @@ fn formfactors(
     let made = rad_pipeline::rows(scene_, &hemi, method, &ids, &|n| bar.set_position(n as u64))
         .map_err(|e| e.to_string())?;
     bar.finish_and_clear();
-    report_estimates(&made);
+    report_estimates(made.method, &made.stats);
     let leaked: Vec<u32> = made
         .rows
         .iter()
@@ -408,19 +407,16 @@ fn solve(
         reciprocal: !raw,
     };
     let n = scene.scene.patches().len();
-    let all: Vec<u32> = (0..n as u32).collect();
     let bar = row_bar(&hemi, method, n);
-    let clock = std::time::Instant::now();
-    let made = rad_pipeline::rows(&scene.scene, &hemi, method, &all, &|k| {
-        bar.set_position(k as u64)
+    let (file, solved, stats) = solve_scene(scene, &hemi, method, &opts, &|k| {
+        bar.set_position(k as u64);
+        if k == n {
+            bar.set_message(format!("rows done; solving ({})", opts.solver.name()));
+        }
     })
     .map_err(|e| e.to_string())?;
-    let seconds = clock.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    report_estimates(&made);
-    eprintln!("solving {n} patches ({})", opts.solver.name());
-    let (file, solved) =
-        solve_rows(scene, &hemi, made, seconds, &opts).map_err(|e| e.to_string())?;
+    report_estimates(method, &stats);
     if let Some(rec) = solved.reciprocity.filter(|r| !r.converged) {
         eprintln!(
             "warning: the reciprocal scaling stopped after {} products with rows off their sums by up to {:.1e}; energy is conserved only to that",

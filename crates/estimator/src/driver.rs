@@ -52,6 +52,20 @@ pub struct EstimateStats {
     pub estimate_seconds: f64,
 }
 
+impl EstimateStats {
+    /// Adds the counts of another run (of other patches).
+    pub fn add(&mut self, o: &EstimateStats) {
+        self.exact += o.exact;
+        self.estimated += o.estimated;
+        self.fallback_exact += o.fallback_exact;
+        self.real_rays += o.real_rays;
+        self.holes += o.holes;
+        self.polygon_tests += o.polygon_tests;
+        self.exact_seconds += o.exact_seconds;
+        self.estimate_seconds += o.estimate_seconds;
+    }
+}
+
 /// Rows of `patches` by the window schedule: the exact hemisphere of each window's centre
 /// (with boundary lists if configured) and estimates of the others. Windows run in
 /// parallel; the result does not depend on the thread count. `progress(n)` after each

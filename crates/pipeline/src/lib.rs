@@ -15,11 +15,11 @@ pub use method::{CasterKind, RowMethod};
 // The vocabulary the front ends need, so that they see the libraries only through
 // the pipeline.
 pub use parse::{parse_patch_list, parse_resolution};
-pub use rad_estimator::Mode;
+pub use rad_estimator::{EstimateStats, Mode};
 pub use rad_hemisphere::{Hemisphere, HemisphereConfig};
 pub use rad_render::{RenderConfig, Shading, View};
 pub use rad_solver::{SolveConfig, Solver};
-pub use rows::{rows, Rows};
+pub use rows::{rows, rows_streamed, Rows, STREAM_CHUNK};
 pub use scene_file::SceneFile;
 
 use rad_accel::VoxelGridConfig;

@@ -31,18 +31,148 @@ pub fn rows(
     patches: &[PatchId],
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Rows, Error> {
-    let made = match method.caster() {
-        CasterKind::Scan => rows_with(scene, &Scan, hemi, method, patches, progress),
-        CasterKind::Grid => {
-            let grid = VoxelGrid::build(scene, &default_grid())?;
-            rows_with(scene, &grid, hemi, method, patches, progress)
+    struct Job<'a> {
+        scene: &'a Scene,
+        hemi: &'a Hemisphere,
+        method: RowMethod,
+        patches: &'a [PatchId],
+        progress: &'a (dyn Fn(usize) + Sync),
+    }
+    impl CasterJob for Job<'_> {
+        type Out = Rows;
+        fn run<C: Caster>(self, caster: &C) -> Result<Rows, Error> {
+            let made = rows_with(
+                self.scene,
+                caster,
+                self.hemi,
+                self.method,
+                self.patches,
+                self.progress,
+            )?;
+            check_finite(&made)?;
+            Ok(made)
         }
-        CasterKind::Hierarchy => {
-            let tree = Hierarchy::new(scene);
-            rows_with(scene, &tree, hemi, method, patches, progress)
+    }
+    with_caster(
+        scene,
+        method.caster(),
+        Job {
+            scene,
+            hemi,
+            method,
+            patches,
+            progress,
+        },
+    )
+}
+
+/// Patches a chunk of [`rows_streamed`] holds at least (whole polygons: no window of
+/// estimated rows is split, so the rows are those of [`rows`]).
+pub const STREAM_CHUNK: usize = 512;
+
+/// Every patch's row by `method`, made chunk by chunk (each in parallel) and handed to
+/// `sink` in patch order as soon as the chunk is done, so that only two chunks are
+/// held at a time (one being made, one being taken); the next chunk is made while
+/// `sink` takes the last. The rows, and the order, are those of [`rows`] over every
+/// patch; `progress(n)` gets the rows done so far. Returns the run's counts.
+pub fn rows_streamed(
+    scene: &Scene,
+    hemi: &Hemisphere,
+    method: RowMethod,
+    progress: &(dyn Fn(usize) + Sync),
+    sink: &mut (dyn FnMut(Rows) -> Result<(), Error> + Send),
+) -> Result<EstimateStats, Error> {
+    struct Job<'a, 'b> {
+        scene: &'a Scene,
+        hemi: &'a Hemisphere,
+        method: RowMethod,
+        progress: &'a (dyn Fn(usize) + Sync),
+        sink: &'b mut (dyn FnMut(Rows) -> Result<(), Error> + Send),
+    }
+    impl CasterJob for Job<'_, '_> {
+        type Out = EstimateStats;
+        fn run<C: Caster>(self, caster: &C) -> Result<EstimateStats, Error> {
+            let mut stats = EstimateStats::default();
+            let mut pending: Option<Rows> = None;
+            let chunks = stream_chunks(self.scene);
+            let sink = self.sink;
+            for chunk in chunks.iter().map(Some).chain([None]) {
+                let make = || -> Result<Option<Rows>, Error> {
+                    let Some(r) = chunk else { return Ok(None) };
+                    let patches: Vec<PatchId> = r.clone().map(|p| p as PatchId).collect();
+                    let base = r.start;
+                    let progress = |k| (self.progress)(base + k);
+                    let made = rows_with(
+                        self.scene,
+                        caster,
+                        self.hemi,
+                        self.method,
+                        &patches,
+                        &progress,
+                    )?;
+                    check_finite(&made)?;
+                    Ok(Some(made))
+                };
+                let previous = pending.take();
+                let take = || previous.map_or(Ok(()), &mut *sink);
+                let (made, taken) = rayon::join(make, take);
+                taken?;
+                if let Some(made) = made? {
+                    stats.add(&made.stats);
+                    pending = Some(made);
+                }
+            }
+            Ok(stats)
         }
-    }?;
-    // (Form factors are sums of finite delta form factors: a non-finite one is a bug.)
+    }
+    with_caster(
+        scene,
+        method.caster(),
+        Job {
+            scene,
+            hemi,
+            method,
+            progress,
+            sink,
+        },
+    )
+}
+
+/// The patch ranges of [`rows_streamed`]'s chunks: whole polygons, each chunk at least
+/// [`STREAM_CHUNK`] patches but the last.
+fn stream_chunks(scene: &Scene) -> Vec<std::ops::Range<usize>> {
+    let patches = scene.patches();
+    let mut out = Vec::new();
+    let mut start = 0;
+    for e in 1..=patches.len() {
+        let polygon_ends = e == patches.len() || patches[e].polygon != patches[e - 1].polygon;
+        if polygon_ends && (e - start >= STREAM_CHUNK || e == patches.len()) {
+            out.push(start..e);
+            start = e;
+        }
+    }
+    out
+}
+
+/// Work to do with whichever caster a method names, built once.
+trait CasterJob {
+    type Out;
+    fn run<C: Caster>(self, caster: &C) -> Result<Self::Out, Error>;
+}
+
+/// Builds the caster `kind` names for `scene` and runs `job` with it: the one place
+/// names become casters.
+fn with_caster<J: CasterJob>(scene: &Scene, kind: CasterKind, job: J) -> Result<J::Out, Error> {
+    match kind {
+        CasterKind::Scan => job.run(&Scan),
+        CasterKind::Grid => job.run(&VoxelGrid::build(scene, &default_grid())?),
+        CasterKind::Hierarchy => job.run(&Hierarchy::new(scene)),
+    }
+}
+
+/// Refuses rows holding a non-finite value. (Form factors are sums of finite delta form
+/// factors: a non-finite one is a bug.)
+fn check_finite(made: &Rows) -> Result<(), Error> {
     for r in &made.rows {
         let values = r.entries.iter().map(|e| e.1).chain([r.back, r.escaped]);
         if let Some(v) = values.into_iter().find(|v| !v.is_finite()) {
@@ -53,7 +183,7 @@ pub fn rows(
             });
         }
     }
-    Ok(made)
+    Ok(())
 }
 
 fn rows_with<C: Caster>(

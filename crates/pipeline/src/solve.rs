@@ -4,11 +4,12 @@
 
 use crate::{Error, RowMethod, SceneFile};
 use rad_core::PatchId;
+use rad_estimator::EstimateStats;
 use rad_geometry::Scene;
 use rad_hemisphere::Hemisphere;
 use rad_solver::{
-    energy_balance, gauss_seidel, progressive, EnergyBalance, FormFactors, Reciprocity, Solution,
-    SolveConfig, Solver, Surfaces,
+    energy_balance, gauss_seidel, progressive, EnergyBalance, FormFactors, PairBuilder, PairMatrix,
+    Reciprocity, Solution, SolveConfig, Solver, Surfaces,
 };
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -68,10 +69,30 @@ pub struct Solved {
     pub raw_balance: EnergyBalance,
     pub scaling_seconds: f64,
     pub solve_seconds: f64,
+    /// The matrix solved: its stored pairs and the bytes they take.
+    pub matrix: MatrixJson,
 }
 
-/// Solves `ff` (rows as computed) for `surfaces`.
+/// The stored matrix of a solve.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct MatrixJson {
+    /// Pairs `i < j` with `F_ij` or `F_ji` stored ([`PairMatrix::n_pairs`]).
+    pub pairs: usize,
+    /// Bytes of the rows as computed and of their reciprocal scaling, together.
+    pub bytes: usize,
+}
+
+/// Solves `ff` (rows as computed) for `surfaces`: [`solve_pairs`] on the same values.
 pub fn solve(ff: &FormFactors, surfaces: &Surfaces, opts: &SolveOptions) -> Result<Solved, Error> {
+    solve_pairs(&PairMatrix::from_form_factors(ff), surfaces, opts)
+}
+
+/// Solves `ff` (rows as computed, stored by pairs) for `surfaces`.
+pub fn solve_pairs(
+    ff: &PairMatrix,
+    surfaces: &Surfaces,
+    opts: &SolveOptions,
+) -> Result<Solved, Error> {
     let t = Instant::now();
     let (matrix, reciprocity) = if opts.reciprocal {
         let (m, r) = ff.reciprocal(&surfaces.area, SCALING_TOLERANCE, SCALING_ITERATIONS)?;
@@ -100,6 +121,12 @@ pub fn solve(ff: &FormFactors, surfaces: &Surfaces, opts: &SolveOptions) -> Resu
         raw_balance,
         scaling_seconds,
         solve_seconds,
+        matrix: MatrixJson {
+            pairs: ff.n_pairs(),
+            bytes: ff.pattern_bytes()
+                + ff.heap_bytes()
+                + matrix.as_ref().map_or(0, |m| m.heap_bytes()),
+        },
     })
 }
 
@@ -180,6 +207,8 @@ pub struct SolutionFile {
     pub solver: SolverJson,
     /// Seconds: form factors, reciprocal scaling, solve.
     pub timings: Timings,
+    /// The stored matrix.
+    pub matrix: MatrixJson,
     /// Progressive refinement's ambient term (added for display as `ρ · ambient`).
     pub ambient: [f64; 3],
     /// Radiosity per patch, in patch order: `radiosity[i]` is patch i's RGB.
@@ -194,35 +223,29 @@ pub struct Timings {
 }
 
 /// Every row of `scene` by `method`, made reciprocal unless told otherwise, solved:
-/// the solution file, and the solve (its reciprocity and energy balance).
-/// `progress(n)` as [`crate::rows`] calls it.
+/// the solution file, the solve (its reciprocity and energy balance) and the rows'
+/// counts. Rows are streamed into the pair storage as they are made
+/// ([`crate::rows_streamed`]), never held as rows; `progress(n)` gets the rows done.
 pub fn solve_scene(
     scene: &SceneFile,
     hemi: &Hemisphere,
     method: RowMethod,
     opts: &SolveOptions,
     progress: &(dyn Fn(usize) + Sync),
-) -> Result<(SolutionFile, Solved), Error> {
+) -> Result<(SolutionFile, Solved, EstimateStats), Error> {
     let n = scene.scene.patches().len();
-    let all: Vec<PatchId> = (0..n as PatchId).collect();
     let t = Instant::now();
-    let made = crate::rows(&scene.scene, hemi, method, &all, progress)?;
-    solve_rows(scene, hemi, made, t.elapsed().as_secs_f64(), opts)
-}
-
-/// [`solve_scene`] from its rows, every patch's, made in `form_factors_seconds`.
-pub fn solve_rows(
-    scene: &SceneFile,
-    hemi: &Hemisphere,
-    made: crate::Rows,
-    form_factors_seconds: f64,
-    opts: &SolveOptions,
-) -> Result<(SolutionFile, Solved), Error> {
-    let n = scene.scene.patches().len();
-    let method = made.method;
-    let ff = FormFactors::from_rows(n, made.rows.iter().map(|r| (r.patch, &r.entries[..])))?;
-    drop(made);
-    let solved = solve(&ff, &surfaces(&scene.scene), opts)?;
+    let mut builder = PairBuilder::new(n);
+    let stats = crate::rows_streamed(&scene.scene, hemi, method, progress, &mut |made| {
+        for r in &made.rows {
+            builder.push_row(r.patch, &r.entries)?;
+        }
+        Ok(())
+    })?;
+    let raw = builder.finish()?;
+    let form_factors_seconds = t.elapsed().as_secs_f64();
+    let solved = solve_pairs(&raw, &surfaces(&scene.scene), opts)?;
+    drop(raw);
     check_finite(&solved)?;
     let file = SolutionFile {
         scene: scene.path.display().to_string(),
@@ -236,10 +259,11 @@ pub fn solve_rows(
             scaling_seconds: solved.scaling_seconds,
             solve_seconds: solved.solve_seconds,
         },
+        matrix: solved.matrix,
         ambient: solved.solution.ambient,
         radiosity: solved.solution.radiosity.clone(),
     };
-    Ok((file, solved))
+    Ok((file, solved, stats))
 }
 
 /// Refuses a solve that produced a non-finite radiosity, ambient term or energy figure.

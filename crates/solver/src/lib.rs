@@ -10,9 +10,13 @@
 //! Non-convergence is data ([`SolveReport::converged`]), not an error.
 
 mod matrix;
+mod operator;
+mod pairs;
 mod solve;
 
 pub use matrix::{FormFactors, Reciprocity};
+pub use operator::Operator;
+pub use pairs::{PairBuilder, PairMatrix};
 pub use solve::{
     energy_balance, gauss_seidel, progressive, residual, EnergyBalance, Solution, SolveConfig,
     SolveReport, Solver, Surfaces,

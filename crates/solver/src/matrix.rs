@@ -1,11 +1,13 @@
 //! The sparse form-factor matrix (CSR) and its reciprocal, row-sum-keeping version.
 
-use crate::Error;
+use crate::operator::{add_scaled, update, Operator};
+use crate::solve::Surfaces;
+use crate::{Error, PairMatrix};
 use rad_core::PatchId;
 use rayon::prelude::*;
 
 /// Rows may sum to this much over 1 (accumulation round-off) before they are refused.
-const ROW_SUM_SLACK: f64 = 1e-6;
+pub(crate) const ROW_SUM_SLACK: f64 = 1e-6;
 
 /// A square sparse matrix of form factors, one row per patch, columns sorted.
 ///
@@ -216,40 +218,10 @@ impl FormFactors {
         let (c, v) = self.row(i);
         let mut s = [0.0f64; 3];
         for (&j, &f) in c.iter().zip(v) {
-            let b = x[j as usize];
-            let f = f as f64;
-            s[0] += f * b[0];
-            s[1] += f * b[1];
-            s[2] += f * b[2];
+            add_scaled(&mut s, f as f64, &x[j as usize]);
         }
         let k = self.row_scale[i as usize];
         [s[0] * k, s[1] * k, s[2] * k]
-    }
-
-    /// The transpose's pattern and values of `A_i F_ij` (row j holds column i).
-    fn weighted_transpose(&self, area: &[f64]) -> (Vec<usize>, Vec<PatchId>, Vec<f64>) {
-        let n = self.n_patches();
-        let mut count = vec![0usize; n + 1];
-        for &j in &self.column {
-            count[j as usize + 1] += 1;
-        }
-        for k in 0..n {
-            count[k + 1] += count[k];
-        }
-        let start = count.clone();
-        let mut fill = count;
-        let mut col = vec![0 as PatchId; self.column.len()];
-        let mut val = vec![0.0f64; self.column.len()];
-        for i in 0..n {
-            let (c, v) = self.row(i as PatchId);
-            for (&j, &f) in c.iter().zip(v) {
-                let at = fill[j as usize];
-                col[at] = i as PatchId;
-                val[at] = area[i] * f as f64 * self.row_scale[i];
-                fill[j as usize] += 1;
-            }
-        }
-        (start, col, val)
     }
 
     /// The exactly reciprocal matrix closest to this one that keeps each row's sum.
@@ -268,160 +240,86 @@ impl FormFactors {
         tolerance: f64,
         max_iterations: usize,
     ) -> Result<(FormFactors, Reciprocity), Error> {
-        let n = self.n_patches();
-        check_areas(area, n)?;
-        let rows = self.symmetric_part(area);
-        let target: Vec<f64> = (0..n)
-            .map(|i| area[i] * self.row_sum(i as PatchId))
-            .collect();
-        let (x, iterations, worst) = balance(&rows, &target, tolerance, max_iterations);
-        let active: Vec<bool> = target.iter().map(|&t| t > 0.0).collect();
-        if x.iter()
-            .zip(&active)
-            .any(|(v, &a)| !v.is_finite() || (a && *v <= 0.0))
-        {
-            return Err(Error::NoReciprocalScaling { iterations });
-        }
-        let (row_start, column, value, change, max_row_sum_error) = self.scaled(&rows, &x, area);
-        let mut asym: Vec<f64> = rows.into_iter().flat_map(|r| r.2).collect();
-        asym.sort_by(f64::total_cmp);
-        let report = Reciprocity {
-            max_input_asymmetry: asym.last().copied().unwrap_or(0.0),
-            median_input_asymmetry: asym.get(asym.len() / 2).copied().unwrap_or(0.0),
-            mean_row_l1_change: change / n.max(1) as f64,
-            max_row_sum_error,
-            iterations,
-            converged: worst <= tolerance,
-        };
-        Ok((
-            FormFactors {
-                row_start,
-                column,
-                value,
-                row_scale: area.iter().map(|a| 1.0 / a).collect(),
-                symmetric: true,
-            },
-            report,
-        ))
+        let (m, report) =
+            PairMatrix::from_form_factors(self).reciprocal(area, tolerance, max_iterations)?;
+        Ok((m.to_form_factors(), report))
     }
 
-    /// G's rows, `(A_i F_ij + A_j F_ji) / 2`, each with the input's relative
-    /// asymmetries of its resolved pairs (j > i, both terms at least 1e-4 of the smaller
-    /// area): (columns, values, asymmetries).
-    fn symmetric_part(&self, area: &[f64]) -> Vec<GRow> {
-        let n = self.n_patches();
-        let (t_start, t_col, t_val) = self.weighted_transpose(area);
-        // G, row by row: the merge of row i of (A F) and of (A F)^T, halved.
-        (0..n)
-            .into_par_iter()
-            .map(|i| {
-                let (c, v) = self.row(i as PatchId);
-                let scale = self.row_scale[i];
-                let (tc, tv) = (
-                    &t_col[t_start[i]..t_start[i + 1]],
-                    &t_val[t_start[i]..t_start[i + 1]],
-                );
-                let mut cols = Vec::with_capacity(c.len().max(tc.len()));
-                let mut vals = Vec::with_capacity(cols.capacity());
-                let mut asym = Vec::new();
-                let (mut a, mut b) = (0, 0);
-                while a < c.len() || b < tc.len() {
-                    let ja = c.get(a).copied().unwrap_or(PatchId::MAX);
-                    let jb = tc.get(b).copied().unwrap_or(PatchId::MAX);
-                    let j = ja.min(jb);
-                    let x = if ja == j {
-                        a += 1;
-                        area[i] * v[a - 1] as f64 * scale
-                    } else {
-                        0.0
-                    };
-                    let y = if jb == j {
-                        b += 1;
-                        tv[b - 1]
-                    } else {
-                        0.0
-                    };
-                    let m = x.max(y);
-                    if (j as usize) > i && x.min(y) >= 1e-4 * area[i].min(area[j as usize]) {
-                        asym.push((x - y).abs() / m);
-                    }
-                    cols.push(j);
-                    vals.push(0.5 * (x + y));
-                }
-                (cols, vals, asym)
-            })
-            .collect()
-    }
-
-    /// The rows of `x_i G_ij x_j / A_i` (stored as f32: symmetric bit for bit), with the
-    /// total change from this matrix and the largest row-sum error: (row_start, column,
-    /// value, change, max_row_sum_error).
-    fn scaled(&self, rows: &[GRow], x: &[f64], area: &[f64]) -> Scaled {
-        let n = self.n_patches();
-        let mut row_start = Vec::with_capacity(n + 1);
-        row_start.push(0);
-        let mut column = Vec::new();
-        let mut value = Vec::new();
-        let mut change = 0.0;
-        let mut max_row_sum_error: f64 = 0.0;
-        for (i, (cols, vals, _)) in rows.iter().enumerate() {
-            let mut sum = 0.0;
-            // G's pattern holds F's row: walk both in column order.
-            let (fc, fv) = self.row(i as PatchId);
-            let scale = self.row_scale[i];
-            let mut k = 0;
-            for (&j, &g) in cols.iter().zip(vals) {
-                // x_i x_j commutes exactly, so the stored value is symmetric bit for bit.
-                let stored = (g * (x[i] * x[j as usize])) as f32;
-                let f = stored as f64 / area[i];
-                sum += f;
-                let old = if k < fc.len() && fc[k] == j {
-                    k += 1;
-                    fv[k - 1] as f64 * scale
-                } else {
-                    0.0
-                };
-                change += (f - old).abs();
-                column.push(j);
-                value.push(stored);
-            }
-            max_row_sum_error = max_row_sum_error.max((sum - self.row_sum(i as PatchId)).abs());
-            row_start.push(column.len());
+    /// A matrix from its arrays (their invariants hold: the pair storage's conversion).
+    pub(crate) fn from_parts(
+        row_start: Vec<usize>,
+        column: Vec<PatchId>,
+        value: Vec<f32>,
+        row_scale: Vec<f64>,
+        symmetric: bool,
+    ) -> FormFactors {
+        FormFactors {
+            row_start,
+            column,
+            value,
+            row_scale,
+            symmetric,
         }
-        (row_start, column, value, change, max_row_sum_error)
     }
 }
 
-/// A row of G: columns, values, and the input's asymmetries there.
-type GRow = (Vec<PatchId>, Vec<f64>, Vec<f64>);
-/// The scaled matrix's rows, its total change and largest row-sum error.
-type Scaled = (Vec<usize>, Vec<PatchId>, Vec<f32>, f64, f64);
+impl Operator for FormFactors {
+    fn n_patches(&self) -> usize {
+        FormFactors::n_patches(self)
+    }
+
+    fn row_sums(&self) -> Vec<f64> {
+        (0..self.n_patches() as PatchId)
+            .map(|i| self.row_sum(i))
+            .collect()
+    }
+
+    fn apply(&self, x: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        FormFactors::apply(self, x)
+    }
+
+    fn sweep(&self, surfaces: &Surfaces, b: &mut [[f64; 3]]) -> (f64, f64) {
+        let (mut change, mut scale) = (0.0f64, 0.0f64);
+        for i in 0..self.n_patches() {
+            let h = self.row_dot(i as PatchId, b);
+            update(surfaces, i, h, &mut b[i], &mut change, &mut scale);
+        }
+        (change, scale)
+    }
+
+    fn shoot<F: FnMut(usize, f64)>(&self, i: PatchId, area: &[f64], mut f: F) {
+        let (cols, vals) = self.row(i);
+        let row_scale = self.row_scale(i);
+        let i = i as usize;
+        for (&j, &v) in cols.iter().zip(vals) {
+            let j = j as usize;
+            // F_ji: exact from symmetric storage, else by reciprocity from F_ij.
+            let k = if self.symmetric {
+                v as f64 * self.row_scale[j]
+            } else {
+                v as f64 * row_scale * area[i] / area[j]
+            };
+            f(j, k);
+        }
+    }
+}
 
 /// The scaling x with `x ∘ (G x) = target` (to `tolerance` relative, at most
-/// `max_iterations` products by G), G given by its `rows`: (x, products made, the
+/// `max_iterations` products by G), G given by its product `spmv`: (x, products made, the
 /// largest relative error left).
-fn balance(
-    rows: &[GRow],
+pub(crate) fn balance(
+    n: usize,
+    spmv: impl Fn(&[f64]) -> Vec<f64>,
     target: &[f64],
     tolerance: f64,
     max_iterations: usize,
 ) -> (Vec<f64>, usize, f64) {
-    let n = rows.len();
-    let g_dot = |i: usize, x: &[f64]| -> f64 {
-        rows[i]
-            .0
-            .iter()
-            .zip(&rows[i].1)
-            .map(|(&j, &g)| g * x[j as usize])
-            .sum()
-    };
     // Newton's method on x ∘ (G x) = t, each step solved by preconditioned conjugate
     // gradients (Knight & Ruiz's balancing idea): the Jacobian divided by x,
     // diag(Gx / x) + G, is symmetric positive semi-definite. Patches with t = 0 keep
     // x = 0. `iterations` counts products by G.
     let active: Vec<bool> = target.iter().map(|&t| t > 0.0).collect();
     let mut x: Vec<f64> = active.iter().map(|&a| if a { 1.0 } else { 0.0 }).collect();
-    let spmv = |v: &[f64]| -> Vec<f64> { (0..n).into_par_iter().map(|i| g_dot(i, v)).collect() };
     let dot = |a: &[f64], b: &[f64]| -> f64 { a.iter().zip(b).map(|(p, q)| p * q).sum() };
     let mut iterations = 0;
     let mut worst;
@@ -454,7 +352,8 @@ fn balance(
             })
             .collect();
         let r_norm = dot(&r, &r).sqrt();
-        let eta = worst.sqrt().min(0.5);
+        // Solve only as far as the step can use: to a tenth of the tolerance at the end.
+        let eta = worst.sqrt().max(0.1 * tolerance / worst).min(0.5);
         let mut delta = vec![0.0; n];
         let mut res = r;
         let mut z: Vec<f64> = res.iter().zip(&d).map(|(a, b)| a / b).collect();

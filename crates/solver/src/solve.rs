@@ -1,7 +1,8 @@
 //! Gauss-Seidel gathering, progressive shooting, the residual and the energy balance.
 
-use crate::matrix::{check_areas, FormFactors};
+use crate::matrix::check_areas;
 use crate::Error;
+use crate::Operator;
 use rad_core::PatchId;
 
 /// What the solvers need to know of each patch: area, emission (radiosity units) and
@@ -138,7 +139,7 @@ impl Solution {
 
 /// `max_{i,c} |E + ρ F B − B|_{i,c} / max_{i,c} B_{i,c}` (0 if B is zero everywhere and
 /// so is E).
-pub fn residual(ff: &FormFactors, surfaces: &Surfaces, b: &[[f64; 3]]) -> f64 {
+pub fn residual<M: Operator>(ff: &M, surfaces: &Surfaces, b: &[[f64; 3]]) -> f64 {
     let h = ff.apply(b);
     let mut worst: f64 = 0.0;
     let mut scale: f64 = 0.0;
@@ -156,7 +157,7 @@ pub fn residual(ff: &FormFactors, surfaces: &Surfaces, b: &[[f64; 3]]) -> f64 {
     }
 }
 
-fn check(ff: &FormFactors, surfaces: &Surfaces, config: &SolveConfig) -> Result<(), Error> {
+fn check<M: Operator>(ff: &M, surfaces: &Surfaces, config: &SolveConfig) -> Result<(), Error> {
     config.validate()?;
     surfaces.validate(ff.n_patches())
 }
@@ -164,30 +165,19 @@ fn check(ff: &FormFactors, surfaces: &Surfaces, config: &SolveConfig) -> Result<
 /// Gauss-Seidel gathering: `B_i ← E_i + ρ_i Σ_j F_ij B_j`, patches in order, sweeps until
 /// the largest change of a sweep and then the true residual are within tolerance.
 /// Sequential, so the answer does not depend on threads.
-pub fn gauss_seidel(
-    ff: &FormFactors,
+pub fn gauss_seidel<M: Operator>(
+    ff: &M,
     surfaces: &Surfaces,
     config: &SolveConfig,
 ) -> Result<Solution, Error> {
     check(ff, surfaces, config)?;
-    let n = ff.n_patches();
     let mut b = surfaces.emission.clone();
     let mut iterations = 0;
     let mut res = residual(ff, surfaces, &b);
     let mut fresh = true;
     while res > config.tolerance && iterations < config.max_iterations {
         fresh = false;
-        let mut change: f64 = 0.0;
-        let mut scale: f64 = 0.0;
-        for i in 0..n {
-            let h = ff.row_dot(i as PatchId, &b);
-            for c in 0..3 {
-                let new = surfaces.emission[i][c] + surfaces.reflectance[i][c] * h[c];
-                change = change.max((new - b[i][c]).abs());
-                scale = scale.max(new.abs());
-                b[i][c] = new;
-            }
-        }
+        let (change, scale) = ff.sweep(surfaces, &mut b);
         iterations += 1;
         if change <= config.tolerance * scale.max(f64::MIN_POSITIVE) {
             res = residual(ff, surfaces, &b);
@@ -217,8 +207,8 @@ pub fn gauss_seidel(
 /// and its residual levels off near their reciprocity error). Stops when the largest
 /// unshot radiosity is within tolerance of the largest radiosity and then the true
 /// residual is too.
-pub fn progressive(
-    ff: &FormFactors,
+pub fn progressive<M: Operator>(
+    ff: &M,
     surfaces: &Surfaces,
     config: &SolveConfig,
 ) -> Result<Solution, Error> {
@@ -258,16 +248,7 @@ pub fn progressive(
         let shot = unshot[i];
         unshot[i] = [0.0; 3];
         power[i] = 0.0;
-        let (cols, vals) = ff.row(i as PatchId);
-        let row_scale = ff.row_scale(i as PatchId);
-        for (&j, &f) in cols.iter().zip(vals) {
-            let j = j as usize;
-            // F_ji: exact from symmetric storage, else by reciprocity from F_ij.
-            let k = if ff.is_symmetric() {
-                f as f64 * ff.row_scale(j as PatchId)
-            } else {
-                f as f64 * row_scale * area[i] / area[j]
-            };
+        ff.shoot(i as PatchId, area, |j, k| {
             let mut add_power = 0.0;
             for c in 0..3 {
                 let d = rho[j][c] * k * shot[c];
@@ -276,7 +257,7 @@ pub fn progressive(
                 add_power += d;
             }
             power[j] += area[j] * add_power;
-        }
+        });
         iterations += 1;
     }
     // Ambient term: unshot radiosity, area-averaged, times 1 / (1 − ρ̄).
@@ -316,12 +297,13 @@ pub struct EnergyBalance {
 
 /// The energy balance of radiosities `b` under `ff`: exact (to the residual) when `ff`
 /// is reciprocal, off by the reciprocity error otherwise.
-pub fn energy_balance(ff: &FormFactors, surfaces: &Surfaces, b: &[[f64; 3]]) -> EnergyBalance {
+pub fn energy_balance<M: Operator>(ff: &M, surfaces: &Surfaces, b: &[[f64; 3]]) -> EnergyBalance {
     let h = ff.apply(b);
+    let sums = ff.row_sums();
     let mut e = EnergyBalance::default();
     for i in 0..b.len() {
         let a = surfaces.area[i];
-        let leave = 1.0 - ff.row_sum(i as PatchId);
+        let leave = 1.0 - sums[i];
         for c in 0..3 {
             e.emitted[c] += a * surfaces.emission[i][c];
             e.absorbed[c] += a * (1.0 - surfaces.reflectance[i][c]) * h[i][c];

@@ -1,6 +1,7 @@
 //! Integration tests of rad-solver: closed forms in `analytic`, properties in `props`.
 
 mod analytic;
+mod pairs;
 mod props;
 
 use rad_solver::{FormFactors, Surfaces};
