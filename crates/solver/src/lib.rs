@@ -12,11 +12,13 @@
 mod matrix;
 mod operator;
 mod pairs;
+mod shooting;
 mod solve;
 
 pub use matrix::{FormFactors, Reciprocity};
 pub use operator::Operator;
 pub use pairs::{PairBuilder, PairMatrix};
+pub use shooting::{shoot_matrix_free, MatrixFreeConfig, MatrixFreeStats, ShotRow};
 pub use solve::{
     energy_balance, gauss_seidel, progressive, residual, EnergyBalance, Solution, SolveConfig,
     SolveReport, Solver, Surfaces,

@@ -92,7 +92,7 @@ impl Default for SolveConfig {
 }
 
 impl SolveConfig {
-    fn validate(&self) -> Result<(), Error> {
+    pub(crate) fn validate(&self) -> Result<(), Error> {
         if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
             return Err(Error::BadConfig {
                 what: "tolerance",
@@ -260,16 +260,7 @@ pub fn progressive<M: Operator>(
         });
         iterations += 1;
     }
-    // Ambient term: unshot radiosity, area-averaged, times 1 / (1 − ρ̄).
-    let total_area: f64 = area.iter().sum();
-    let ambient = std::array::from_fn(|c| {
-        if n == 0 {
-            return 0.0;
-        }
-        let u: f64 = (0..n).map(|i| area[i] * unshot[i][c]).sum::<f64>() / total_area;
-        let r: f64 = (0..n).map(|i| area[i] * rho[i][c]).sum::<f64>() / total_area;
-        u / (1.0 - r)
-    });
+    let ambient = ambient_term(area, rho, &unshot);
     Ok(Solution {
         radiosity: b,
         ambient,
@@ -279,6 +270,21 @@ pub fn progressive<M: Operator>(
             residual: res,
             converged: res <= config.tolerance,
         },
+    })
+}
+
+/// Progressive refinement's ambient term: unshot radiosity, area-averaged, times
+/// `1 / (1 − ρ̄)`.
+pub(crate) fn ambient_term(area: &[f64], rho: &[[f64; 3]], unshot: &[[f64; 3]]) -> [f64; 3] {
+    let n = area.len();
+    let total_area: f64 = area.iter().sum();
+    std::array::from_fn(|c| {
+        if n == 0 {
+            return 0.0;
+        }
+        let u: f64 = (0..n).map(|i| area[i] * unshot[i][c]).sum::<f64>() / total_area;
+        let r: f64 = (0..n).map(|i| area[i] * rho[i][c]).sum::<f64>() / total_area;
+        u / (1.0 - r)
     })
 }
 
