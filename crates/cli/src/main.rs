@@ -10,7 +10,7 @@ use rad_pipeline::output::{
 use rad_pipeline::solve::{read_solution, solve_scene, SolveOptions};
 use rad_pipeline::{
     parse_patch_list, parse_resolution, CasterKind, EstimateStats, Hemisphere, HemisphereConfig,
-    Mode, RenderConfig, RowMethod, SceneFile, Shading, SolveConfig, Solver, View,
+    Mode, Progress, RenderConfig, RowMethod, SceneFile, Shading, Solver, Storage, View,
 };
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -68,13 +68,25 @@ enum Command {
         /// gauss-seidel (gathering) or progressive (shooting by unshot power).
         #[arg(long, value_enum, default_value_t = SolverKind::GaussSeidel)]
         solver: SolverKind,
-        /// Stop when max |E + rho F B - B| / max B is at most this.
-        #[arg(long, default_value_t = 1e-9)]
-        tolerance: f64,
+        /// Stop when max |E + rho F B - B| / max B is at most this (stored: default 1e-9);
+        /// matrix-free: when the largest unshot radiosity over the largest radiosity is
+        /// (default 1e-4)
+        #[arg(long)]
+        tolerance: Option<f64>,
         /// Solve the rows as computed, without making them reciprocal first (energy is then
         /// conserved only to their reciprocity error).
         #[arg(long)]
         raw: bool,
+        /// How to hold the form factors: stored (every row made once, kept compact, made
+        /// reciprocal), matrix-free (progressive refinement making each shooter's row when
+        /// it shoots, keeping what the memory limit allows; exact rows only), or auto:
+        /// stored if an estimate from 64 sample rows fits --memory-limit, else matrix-free
+        #[arg(long, value_enum, default_value_t = StorageKind::Auto)]
+        storage: StorageKind,
+        /// Bytes the form factors may take (K, M, G suffixes: powers of 1024); the scene,
+        /// the caster and per-patch arrays come on top
+        #[arg(long, default_value = "1.5G")]
+        memory_limit: String,
         /// The solution file (atomically: all or nothing).
         #[arg(long)]
         out: PathBuf,
@@ -111,6 +123,13 @@ enum Command {
 enum SolverKind {
     GaussSeidel,
     Progressive,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum StorageKind {
+    Auto,
+    Stored,
+    MatrixFree,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -235,11 +254,20 @@ fn run(cli: &Cli) -> Result<(), String> {
             solver,
             tolerance,
             raw,
+            storage,
+            memory_limit,
             out,
         } => {
             let scene = load(scene)?;
             let method = rows.method(&scene);
-            solve(&scene, resolution, method, *solver, *tolerance, *raw, out)
+            let how = How {
+                solver: *solver,
+                tolerance: *tolerance,
+                raw: *raw,
+                storage: *storage,
+                memory_limit: parse_bytes(memory_limit)?,
+            };
+            solve(&scene, resolution, method, &how, out)
         }
         Command::Render {
             scene,
@@ -372,21 +400,55 @@ fn formfactors(
     })
 }
 
+/// How `coherad solve` solves, from its flags.
+struct How {
+    solver: SolverKind,
+    tolerance: Option<f64>,
+    raw: bool,
+    storage: StorageKind,
+    memory_limit: usize,
+}
+
+/// Bytes from "123", "900M", "1.5G" (suffixes K, M, G, T: powers of 1024).
+fn parse_bytes(text: &str) -> Result<usize, String> {
+    let t = text.trim();
+    let (num, unit) = match t.char_indices().find(|(_, c)| c.is_ascii_alphabetic()) {
+        Some((k, _)) => (&t[..k], t[k..].to_ascii_uppercase()),
+        None => (t, String::new()),
+    };
+    let scale: f64 = match unit.trim_end_matches("IB").trim_end_matches('B') {
+        "" => 1.0,
+        "K" => 1024.0,
+        "M" => 1024.0 * 1024.0,
+        "G" => 1024.0 * 1024.0 * 1024.0,
+        "T" => 1024.0f64.powi(4),
+        _ => {
+            return Err(format!(
+                "--memory-limit {text:?}: unknown unit (use K, M, G or T)"
+            ))
+        }
+    };
+    match num.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v * scale < usize::MAX as f64 => {
+            Ok((v * scale) as usize)
+        }
+        _ => Err(format!(
+            "--memory-limit {text:?}: not a positive size (say 900M or 1.5G)"
+        )),
+    }
+}
+
 fn solve(
     scene: &SceneFile,
     resolution: &str,
     method: RowMethod,
-    solver: SolverKind,
-    tolerance: f64,
-    raw: bool,
+    how: &How,
     out: &Path,
 ) -> Result<(), String> {
-    if !(tolerance.is_finite() && tolerance > 0.0) {
-        return Err(format!(
-            "--tolerance must be finite and > 0, not {tolerance}"
-        ));
+    if let Some(t) = how.tolerance.filter(|t| !(t.is_finite() && *t > 0.0)) {
+        return Err(format!("--tolerance must be finite and > 0, not {t}"));
     }
-    if raw && solver == SolverKind::Progressive {
+    if how.raw && how.solver == SolverKind::Progressive {
         return Err(
             "--raw with --solver progressive cannot converge: shooting takes \
              F_ji from F_ij by reciprocity, which raw rows hold only to their \
@@ -395,28 +457,54 @@ fn solve(
         );
     }
     let hemi = hemisphere(resolution)?;
-    let opts = SolveOptions {
-        solver: match solver {
+    let storage = match how.storage {
+        StorageKind::Auto => None,
+        StorageKind::Stored => Some(Storage::Stored),
+        StorageKind::MatrixFree => Some(Storage::MatrixFree),
+    };
+    let mut opts = SolveOptions {
+        solver: match how.solver {
             SolverKind::GaussSeidel => Solver::GaussSeidel,
             SolverKind::Progressive => Solver::Progressive,
         },
-        config: SolveConfig {
-            tolerance,
-            ..SolveConfig::default()
-        },
-        reciprocal: !raw,
+        reciprocal: !how.raw,
+        storage,
+        memory_limit: how.memory_limit,
+        ..SolveOptions::default()
     };
+    if let Some(t) = how.tolerance {
+        opts.config.tolerance = t;
+        opts.matrix_free.tolerance = t;
+    }
     let n = scene.scene.patches().len();
     let bar = row_bar(&hemi, method, n);
-    let (file, solved, stats) = solve_scene(scene, &hemi, method, &opts, &|k| {
-        bar.set_position(k as u64);
-        if k == n {
-            bar.set_message(format!("rows done; solving ({})", opts.solver.name()));
+    let (file, solved, stats) = solve_scene(scene, &hemi, method, &opts, &|p| match p {
+        Progress::Rows(k) => {
+            bar.set_position(k as u64);
+            if k == n {
+                bar.set_message(format!("rows done; solving ({})", opts.solver.name()));
+            }
+        }
+        Progress::Shots { shots, unshot } => {
+            bar.set_position((n as u64).min(shots as u64));
+            bar.set_message(format!(
+                "matrix-free: {shots} shots, {:.2e} of the power unshot",
+                unshot
+            ));
         }
     })
     .map_err(|e| e.to_string())?;
     bar.finish_and_clear();
     report_estimates(method, &stats);
+    if solved.matrix.storage == Storage::MatrixFree.name() {
+        eprintln!(
+            "matrix-free: {} shots, {} rows made, {} kept ({:.0} MiB)",
+            solved.solution.report.iterations,
+            solved.matrix.rows_made,
+            solved.matrix.cached_rows,
+            solved.matrix.bytes as f64 / (1u64 << 20) as f64
+        );
+    }
     if let Some(rec) = solved.reciprocity.filter(|r| !r.converged) {
         eprintln!(
             "warning: the reciprocal scaling stopped after {} products with rows off their sums by up to {:.1e}; energy is conserved only to that",

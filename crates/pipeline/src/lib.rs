@@ -10,6 +10,7 @@ mod parse;
 mod rows;
 mod scene_file;
 pub mod solve;
+mod storage;
 
 pub use method::{CasterKind, RowMethod};
 // The vocabulary the front ends need, so that they see the libraries only through
@@ -20,7 +21,9 @@ pub use rad_hemisphere::{Hemisphere, HemisphereConfig};
 pub use rad_render::{RenderConfig, Shading, View};
 pub use rad_solver::{SolveConfig, Solver};
 pub use rows::{rows, rows_streamed, Rows, STREAM_CHUNK};
+pub(crate) use rows::{with_caster as rows_with_caster, CasterJob};
 pub use scene_file::SceneFile;
+pub use storage::{Progress, Storage, DEFAULT_MEMORY_LIMIT, MATRIX_FREE_BATCH};
 
 use rad_accel::VoxelGridConfig;
 
@@ -62,6 +65,16 @@ pub enum Error {
         what: String,
         value: f64,
         place: &'static str,
+    },
+    /// The form factors do not fit the memory limit by any way of solving offered.
+    #[error(
+        "{what} would need about {need_mib} MiB, over the memory limit of {limit_mib} MiB; {hint}"
+    )]
+    MemoryLimit {
+        what: String,
+        need_mib: u64,
+        limit_mib: u64,
+        hint: &'static str,
     },
     #[error("{}: {reason}", path.display())]
     Solution {

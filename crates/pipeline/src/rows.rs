@@ -155,14 +155,18 @@ fn stream_chunks(scene: &Scene) -> Vec<std::ops::Range<usize>> {
 }
 
 /// Work to do with whichever caster a method names, built once.
-trait CasterJob {
+pub(crate) trait CasterJob {
     type Out;
     fn run<C: Caster>(self, caster: &C) -> Result<Self::Out, Error>;
 }
 
 /// Builds the caster `kind` names for `scene` and runs `job` with it: the one place
 /// names become casters.
-fn with_caster<J: CasterJob>(scene: &Scene, kind: CasterKind, job: J) -> Result<J::Out, Error> {
+pub(crate) fn with_caster<J: CasterJob>(
+    scene: &Scene,
+    kind: CasterKind,
+    job: J,
+) -> Result<J::Out, Error> {
     match kind {
         CasterKind::Scan => job.run(&Scan),
         CasterKind::Grid => job.run(&VoxelGrid::build(scene, &default_grid())?),

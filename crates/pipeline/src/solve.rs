@@ -2,7 +2,7 @@
 //! its energy balance, and the solution file that `coherad solve` writes and
 //! `coherad render` reads (with serde: errors give the line and column).
 
-use crate::{Error, RowMethod, SceneFile};
+use crate::{Error, Progress, RowMethod, SceneFile, Storage, DEFAULT_MEMORY_LIMIT};
 use rad_core::PatchId;
 use rad_estimator::EstimateStats;
 use rad_geometry::Scene;
@@ -40,7 +40,21 @@ pub struct SolveOptions {
     /// Make the matrix reciprocal first ([`FormFactors::reciprocal`]); without it the
     /// energy balance holds only to the reciprocity error of the rows.
     pub reciprocal: bool,
+    /// How to hold the form factors; `None`: by [`crate::storage::choose`] within
+    /// `memory_limit`.
+    pub storage: Option<Storage>,
+    /// Bytes the form factors may take (the stored matrix, or matrix-free solving's
+    /// rows): [`DEFAULT_MEMORY_LIMIT`].
+    pub memory_limit: usize,
+    /// When matrix-free solving stops: the largest unshot radiosity over the largest
+    /// radiosity at most `tolerance` ([`MATRIX_FREE_TOLERANCE`] by default), or
+    /// `max_iterations` shots.
+    pub matrix_free: SolveConfig,
 }
+
+/// The default stopping point of matrix-free solving (its measure: the largest unshot
+/// radiosity over the largest radiosity).
+pub const MATRIX_FREE_TOLERANCE: f64 = 1e-4;
 
 impl Default for SolveOptions {
     fn default() -> Self {
@@ -48,6 +62,12 @@ impl Default for SolveOptions {
             solver: Solver::GaussSeidel,
             config: SolveConfig::default(),
             reciprocal: true,
+            storage: None,
+            memory_limit: DEFAULT_MEMORY_LIMIT,
+            matrix_free: SolveConfig {
+                tolerance: MATRIX_FREE_TOLERANCE,
+                ..SolveConfig::default()
+            },
         }
     }
 }
@@ -73,13 +93,52 @@ pub struct Solved {
     pub matrix: MatrixJson,
 }
 
+impl Solved {
+    /// A matrix-free run as a solve: its energy accounts, no reciprocal scaling.
+    fn matrix_free(
+        solution: Solution,
+        m: rad_solver::MatrixFreeStats,
+        scaling_seconds: f64,
+        solve_seconds: f64,
+    ) -> Solved {
+        let balance = EnergyBalance {
+            emitted: m.emitted,
+            absorbed: m.absorbed,
+            escaped: std::array::from_fn(|c| m.escaped[c] + m.unshot[c]),
+            relative_imbalance: m.relative_imbalance,
+        };
+        Solved {
+            solution,
+            reciprocity: None,
+            balance,
+            raw_balance: balance,
+            scaling_seconds,
+            solve_seconds,
+            matrix: MatrixJson {
+                storage: Storage::MatrixFree.name(),
+                pairs: 0,
+                bytes: m.cached_bytes,
+                rows_made: m.rows_made,
+                cached_rows: m.cached_rows,
+            },
+        }
+    }
+}
+
 /// The stored matrix of a solve.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct MatrixJson {
+    /// [`Storage::name`].
+    pub storage: &'static str,
     /// Pairs `i < j` with `F_ij` or `F_ji` stored ([`PairMatrix::n_pairs`]).
     pub pairs: usize,
-    /// Bytes of the rows as computed and of their reciprocal scaling, together.
+    /// Bytes of the rows as computed and of their reciprocal scaling, together (matrix
+    /// free: of the rows kept for shooters that shoot again).
     pub bytes: usize,
+    /// Rows made (stored: one a patch; matrix-free: one a shot not served by the cache)
+    /// and rows kept at the end.
+    pub rows_made: usize,
+    pub cached_rows: usize,
 }
 
 /// Solves `ff` (rows as computed) for `surfaces`: [`solve_pairs`] on the same values.
@@ -122,6 +181,9 @@ pub fn solve_pairs(
         scaling_seconds,
         solve_seconds,
         matrix: MatrixJson {
+            storage: Storage::Stored.name(),
+            rows_made: ff.n_patches(),
+            cached_rows: 0,
             pairs: ff.n_pairs(),
             bytes: ff.pattern_bytes()
                 + ff.heap_bytes()
@@ -168,11 +230,15 @@ impl SolverJson {
         let r = &s.solution.report;
         SolverJson {
             solver: r.solver.name(),
-            tolerance: opts.config.tolerance,
+            tolerance: if s.matrix.storage == Storage::MatrixFree.name() {
+                opts.matrix_free.tolerance
+            } else {
+                opts.config.tolerance
+            },
             iterations: r.iterations,
             residual: r.residual,
             converged: r.converged,
-            reciprocal: opts.reciprocal,
+            reciprocal: s.reciprocity.is_some(),
             reciprocity: s.reciprocity.map(|r| ReciprocityJson {
                 max_input_asymmetry: r.max_input_asymmetry,
                 median_input_asymmetry: r.median_input_asymmetry,
@@ -231,12 +297,39 @@ pub fn solve_scene(
     hemi: &Hemisphere,
     method: RowMethod,
     opts: &SolveOptions,
-    progress: &(dyn Fn(usize) + Sync),
+    progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<(SolutionFile, Solved, EstimateStats), Error> {
     let n = scene.scene.patches().len();
+    let storage = match opts.storage {
+        Some(s) => s,
+        None => crate::storage::choose(&scene.scene, hemi, method, opts.memory_limit)?,
+    };
     let t = Instant::now();
+    if storage == Storage::MatrixFree {
+        let (solution, m) = crate::storage::solve_matrix_free(
+            &scene.scene,
+            hemi,
+            method,
+            &surfaces(&scene.scene),
+            &opts.matrix_free,
+            opts.memory_limit,
+            progress,
+        )?;
+        let solved = Solved::matrix_free(solution, m, 0.0, t.elapsed().as_secs_f64());
+        check_finite(&solved)?;
+        let stats = EstimateStats {
+            exact: m.rows_made,
+            ..EstimateStats::default()
+        };
+        return Ok((
+            solution_file(scene, hemi, method, opts, &solved, 0.0),
+            solved,
+            stats,
+        ));
+    }
     let mut builder = PairBuilder::new(n);
-    let stats = crate::rows_streamed(&scene.scene, hemi, method, progress, &mut |made| {
+    let rows_progress = |k| progress(Progress::Rows(k));
+    let stats = crate::rows_streamed(&scene.scene, hemi, method, &rows_progress, &mut |made| {
         for r in &made.rows {
             builder.push_row(r.patch, &r.entries)?;
         }
@@ -247,13 +340,26 @@ pub fn solve_scene(
     let solved = solve_pairs(&raw, &surfaces(&scene.scene), opts)?;
     drop(raw);
     check_finite(&solved)?;
-    let file = SolutionFile {
+    let file = solution_file(scene, hemi, method, opts, &solved, form_factors_seconds);
+    Ok((file, solved, stats))
+}
+
+/// The solution file of a solve.
+fn solution_file(
+    scene: &SceneFile,
+    hemi: &Hemisphere,
+    method: RowMethod,
+    opts: &SolveOptions,
+    solved: &Solved,
+    form_factors_seconds: f64,
+) -> SolutionFile {
+    SolutionFile {
         scene: scene.path.display().to_string(),
         scene_hash: scene.hash_text(),
         resolution: [hemi.n_theta() as u32, hemi.n_phi() as u32],
         method: method.rows_name(),
-        n_patches: n,
-        solver: SolverJson::new(&solved, opts),
+        n_patches: scene.scene.patches().len(),
+        solver: SolverJson::new(solved, opts),
         timings: Timings {
             form_factors_seconds,
             scaling_seconds: solved.scaling_seconds,
@@ -262,8 +368,7 @@ pub fn solve_scene(
         matrix: solved.matrix,
         ambient: solved.solution.ambient,
         radiosity: solved.solution.radiosity.clone(),
-    };
-    Ok((file, solved, stats))
+    }
 }
 
 /// Refuses a solve that produced a non-finite radiosity, ambient term or energy figure.

@@ -470,6 +470,7 @@ fn solve_and_render(
             ..SolveConfig::default()
         },
         reciprocal: true,
+        ..SolveOptions::default()
     };
     let view = View::of_scene(scene, cfg.image.0, cfg.image.1)?;
     let rcfg = RenderConfig {
@@ -579,6 +580,7 @@ fn scene_solves_with_b(
             ..SolveConfig::default()
         },
         reciprocal: true,
+        ..SolveOptions::default()
     };
     let gs = solve(&ff, &s, &opts(Solver::GaussSeidel))?;
     let pr = solve(&ff, &s, &opts(Solver::Progressive))?;

@@ -111,6 +111,7 @@ fn furnace_and_energy_balance_on_real_rows() {
             ..SolveConfig::default()
         },
         reciprocal: true,
+        ..SolveOptions::default()
     };
     // The cube, closed: the furnace gives B = E / (1 - rho) = 2 everywhere.
     let cube = Scene::new(rad_geometry::scenes::cube(10)).unwrap();

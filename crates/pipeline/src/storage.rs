@@ -1,0 +1,172 @@
+//! How a solve holds its form factors: the stored pair matrix when it fits the memory
+//! limit, else matrix-free shooting (each shooter's row made when it shoots, kept while
+//! the limit allows), chosen from a sample of rows.
+
+use crate::{rows_with_caster, CasterJob, Error, RowMethod, STREAM_CHUNK};
+use rad_core::PatchId;
+use rad_geometry::Scene;
+use rad_hemisphere::{compute_rows, Caster, Hemisphere};
+use rad_solver::{
+    shoot_matrix_free, MatrixFreeConfig, MatrixFreeStats, ShotRow, Solution, Surfaces,
+};
+
+/// The default of `--memory-limit`: 1.5 GiB for the form factors, so that a solve
+/// (scene, caster and per-patch arrays on top) stays within 2 GiB on a 100k-patch mesh.
+pub const DEFAULT_MEMORY_LIMIT: usize = 1536 << 20;
+
+/// Shooters taken at a time by matrix-free solving (their rows made in parallel).
+pub const MATRIX_FREE_BATCH: usize = 64;
+
+/// Bytes a stored entry takes, all told (pairs at 16 bytes hold about 1.8 entries on the
+/// loft, 8.6 bytes an entry measured; 10 leaves room for less symmetric patterns).
+const STORED_BYTES_PER_ENTRY: f64 = 10.0;
+/// Bytes a row entry takes while a chunk is made and taken (`(PatchId, f64)`).
+const ROW_BYTES_PER_ENTRY: f64 = 16.0;
+/// Bytes a patch takes in per-patch arrays (surfaces, radiosities, powers, ...).
+const BYTES_PER_PATCH: f64 = 200.0;
+/// Rows sampled to estimate the entries a row holds.
+const SAMPLE_ROWS: usize = 64;
+
+/// How the form factors are held during a solve.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Storage {
+    /// Every row made once, streamed into the pair storage, made reciprocal, solved.
+    Stored,
+    /// No matrix: matrix-free progressive refinement (exact rows only).
+    MatrixFree,
+}
+
+impl Storage {
+    pub fn name(self) -> &'static str {
+        match self {
+            Storage::Stored => "stored",
+            Storage::MatrixFree => "matrix-free",
+        }
+    }
+}
+
+/// What a long solve reports as it goes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Progress {
+    /// Rows made so far (the stored path).
+    Rows(usize),
+    /// Shots so far and the share of the emitted power still unshot (matrix-free).
+    Shots { shots: usize, unshot: f64 },
+}
+
+fn mib(bytes: f64) -> u64 {
+    (bytes / (1u64 << 20) as f64).ceil() as u64
+}
+
+/// The storage to use for `scene` by `method` within `limit` bytes: stored if its
+/// estimate (from [`SAMPLE_ROWS`] rows spread over the patches) fits, else matrix-free
+/// if the method is exact and its working set fits, else an error saying what would.
+pub fn choose(
+    scene: &Scene,
+    hemi: &Hemisphere,
+    method: RowMethod,
+    limit: usize,
+) -> Result<Storage, Error> {
+    let n = scene.patches().len();
+    let k = n.min(SAMPLE_ROWS);
+    let sample: Vec<PatchId> = (0..k).map(|s| (s * n / k.max(1)) as PatchId).collect();
+    let exact = RowMethod::Exact {
+        caster: method.caster(),
+    };
+    let rows = crate::rows(scene, hemi, exact, &sample, &|_| {})?.rows;
+    let mean = rows.iter().map(|r| r.entries.len()).sum::<usize>() as f64 / k.max(1) as f64;
+    let stored = mean * n as f64 * STORED_BYTES_PER_ENTRY
+        + 2.0 * (STREAM_CHUNK as f64) * mean * ROW_BYTES_PER_ENTRY
+        + n as f64 * BYTES_PER_PATCH;
+    if stored <= limit as f64 {
+        return Ok(Storage::Stored);
+    }
+    if !method.is_exact() {
+        return Err(Error::MemoryLimit {
+            what: format!("the stored rows of {n} patches"),
+            need_mib: mib(stored),
+            limit_mib: mib(limit as f64),
+            hint: "raise --memory-limit, or use --method exact, which can solve matrix-free",
+        });
+    }
+    let free = matrix_free_floor(n, mean);
+    if free > limit as f64 {
+        return Err(Error::MemoryLimit {
+            what: format!("matrix-free solving of {n} patches"),
+            need_mib: mib(free),
+            limit_mib: mib(limit as f64),
+            hint: "raise --memory-limit",
+        });
+    }
+    Ok(Storage::MatrixFree)
+}
+
+/// The least matrix-free solving needs: per-patch arrays and one batch of rows.
+fn matrix_free_floor(n: usize, mean_entries: f64) -> f64 {
+    n as f64 * BYTES_PER_PATCH + MATRIX_FREE_BATCH as f64 * mean_entries * ROW_BYTES_PER_ENTRY
+}
+
+/// Matrix-free shooting of `scene`'s exact rows through `method`'s caster, rows kept in
+/// what `limit` leaves.
+pub(crate) fn solve_matrix_free(
+    scene: &Scene,
+    hemi: &Hemisphere,
+    method: RowMethod,
+    surfaces: &Surfaces,
+    config: &rad_solver::SolveConfig,
+    limit: usize,
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Result<(Solution, MatrixFreeStats), Error> {
+    if !method.is_exact() {
+        return Err(Error::Parse {
+            what: "method",
+            input: method.name(),
+            reason: "matrix-free solving casts each shooter's row exactly: use --method exact"
+                .into(),
+        });
+    }
+    struct Job<'a> {
+        scene: &'a Scene,
+        hemi: &'a Hemisphere,
+        surfaces: &'a Surfaces,
+        config: MatrixFreeConfig,
+        progress: &'a (dyn Fn(Progress) + Sync),
+    }
+    impl CasterJob for Job<'_> {
+        type Out = (Solution, MatrixFreeStats);
+        fn run<C: Caster>(self, caster: &C) -> Result<Self::Out, Error> {
+            let mut rows = |ids: &[PatchId]| -> Result<Vec<ShotRow>, Error> {
+                let made = compute_rows(self.scene, caster, self.hemi, ids, &|_| {})?;
+                Ok(made.into_iter().map(shot_row).collect())
+            };
+            let mut progress = |shots, unshot| (self.progress)(Progress::Shots { shots, unshot });
+            shoot_matrix_free(self.surfaces, &self.config, &mut rows, &mut progress)
+        }
+    }
+    let n = scene.patches().len();
+    let cache_bytes = (limit as f64 - matrix_free_floor(n, 0.0)).max(0.0) as usize;
+    rows_with_caster(
+        scene,
+        method.caster(),
+        Job {
+            scene,
+            hemi,
+            surfaces,
+            config: MatrixFreeConfig {
+                solve: *config,
+                batch: MATRIX_FREE_BATCH,
+                cache_bytes,
+            },
+            progress,
+        },
+    )
+}
+
+/// A row as shooting takes it: values rounded to `f32`, as the stored matrix holds them
+/// (non-finite values are refused where rows are made).
+fn shot_row(r: rad_hemisphere::Row) -> ShotRow {
+    ShotRow {
+        columns: r.entries.iter().map(|e| e.0).collect(),
+        values: r.entries.iter().map(|e| e.1 as f32).collect(),
+    }
+}
