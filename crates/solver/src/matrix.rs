@@ -81,46 +81,10 @@ impl FormFactors {
             scratch.clear();
             scratch.extend_from_slice(entries);
             scratch.sort_by_key(|e| e.0);
-            let mut sum = 0.0;
-            let mut k = 0;
-            while k < scratch.len() {
-                let (j, mut f) = scratch[k];
-                let bad = |value| Error::BadValue {
-                    row: i as PatchId,
-                    column: j,
-                    value,
-                };
-                if j as usize >= n_patches {
-                    return Err(Error::EntryOutOfRange {
-                        row: i as PatchId,
-                        column: j,
-                        n_patches,
-                    });
-                }
-                if !(f.is_finite() && f >= 0.0) {
-                    return Err(bad(f));
-                }
-                k += 1;
-                while k < scratch.len() && scratch[k].0 == j {
-                    let g = scratch[k].1;
-                    if !(g.is_finite() && g >= 0.0) {
-                        return Err(bad(g));
-                    }
-                    f += g;
-                    k += 1;
-                }
-                sum += f;
-                if f > 0.0 {
-                    column.push(j);
-                    value.push(f as f32);
-                }
-            }
-            if sum > 1.0 + ROW_SUM_SLACK {
-                return Err(Error::RowSumAboveOne {
-                    row: i as PatchId,
-                    sum,
-                });
-            }
+            merge_row(i as PatchId, &scratch, n_patches, |j, f| {
+                column.push(j);
+                value.push(f as f32);
+            })?;
             row_start.push(column.len());
         }
         Ok(FormFactors {
@@ -302,6 +266,55 @@ impl Operator for FormFactors {
             f(j, k);
         }
     }
+}
+
+/// Walks row `i`'s entries, sorted by column, adding the values of a repeated column:
+/// refuses a column out of range, a negative or non-finite value and a row summing to
+/// more than `1 + ROW_SUM_SLACK`; calls `keep(j, F_ij)` for every positive sum, in
+/// column order (the rows as [`FormFactors::from_rows`] and the pair builder take them).
+pub(crate) fn merge_row(
+    i: PatchId,
+    sorted: &[(PatchId, f64)],
+    n_patches: usize,
+    mut keep: impl FnMut(PatchId, f64),
+) -> Result<(), Error> {
+    let mut sum = 0.0;
+    let mut k = 0;
+    while k < sorted.len() {
+        let (j, mut f) = sorted[k];
+        let bad = |value| Error::BadValue {
+            row: i,
+            column: j,
+            value,
+        };
+        if j as usize >= n_patches {
+            return Err(Error::EntryOutOfRange {
+                row: i,
+                column: j,
+                n_patches,
+            });
+        }
+        if !(f.is_finite() && f >= 0.0) {
+            return Err(bad(f));
+        }
+        k += 1;
+        while k < sorted.len() && sorted[k].0 == j {
+            let g = sorted[k].1;
+            if !(g.is_finite() && g >= 0.0) {
+                return Err(bad(g));
+            }
+            f += g;
+            k += 1;
+        }
+        sum += f;
+        if f > 0.0 {
+            keep(j, f);
+        }
+    }
+    if sum > 1.0 + ROW_SUM_SLACK {
+        return Err(Error::RowSumAboveOne { row: i, sum });
+    }
+    Ok(())
 }
 
 /// The scaling x with `x ∘ (G x) = target` (to `tolerance` relative, at most

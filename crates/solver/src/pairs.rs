@@ -3,7 +3,7 @@
 //! made (the rows themselves need not be kept), and its reciprocal scaling, which shares
 //! the pattern and stores one value a pair.
 
-use crate::matrix::{balance, check_areas, ROW_SUM_SLACK};
+use crate::matrix::{balance, check_areas, merge_row};
 use crate::operator::{add_scaled, update, Operator};
 use crate::solve::Surfaces;
 use crate::{Error, FormFactors, Reciprocity};
@@ -137,50 +137,19 @@ impl PairBuilder {
         let result = self.push_sorted(i, entries);
         self.scratch = scratch;
         result?;
-        self.row_start.push(self.column.len());
-        self.cursor.push(self.row_start[i as usize]);
+        self.end_row();
         Ok(())
     }
 
     fn push_sorted(&mut self, i: PatchId, entries: &[(PatchId, f64)]) -> Result<(), Error> {
-        let n = self.n;
-        let mut sum = 0.0;
-        let mut k = 0;
-        while k < entries.len() {
-            let (j, mut f) = entries[k];
-            let bad = |value| Error::BadValue {
-                row: i,
-                column: j,
-                value,
-            };
-            if j as usize >= n {
-                return Err(Error::EntryOutOfRange {
-                    row: i,
-                    column: j,
-                    n_patches: n,
-                });
-            }
-            if !(f.is_finite() && f >= 0.0) {
-                return Err(bad(f));
-            }
-            k += 1;
-            while k < entries.len() && entries[k].0 == j {
-                let g = entries[k].1;
-                if !(g.is_finite() && g >= 0.0) {
-                    return Err(bad(g));
-                }
-                f += g;
-                k += 1;
-            }
-            sum += f;
-            if f > 0.0 {
-                self.place(i, j, f as f32);
-            }
-        }
-        if sum > 1.0 + ROW_SUM_SLACK {
-            return Err(Error::RowSumAboveOne { row: i, sum });
-        }
-        Ok(())
+        merge_row(i, entries, self.n, |j, f| self.place(i, j, f as f32))
+    }
+
+    /// Closes the row being pushed.
+    fn end_row(&mut self) {
+        self.row_start.push(self.column.len());
+        let i = self.cursor.len();
+        self.cursor.push(self.row_start[i]);
     }
 
     /// Stores entry `(i, j)`; row `i` is the one being pushed.
@@ -290,8 +259,7 @@ impl PairMatrix {
             for (&j, &f) in c.iter().zip(v) {
                 b.place(i, j, f);
             }
-            b.row_start.push(b.column.len());
-            b.cursor.push(b.row_start[i as usize]);
+            b.end_row();
         }
         b.cursor = Vec::new();
         b.merge_extra();
