@@ -8,9 +8,14 @@ use rad_pipeline::output::{
     write_atomic, write_patches_json, write_row_json, write_rows_footer, write_rows_header,
 };
 use rad_pipeline::solve::{read_solution, solve_scene, SolveOptions};
+use rad_pipeline::viewfactors::{
+    check_format, count_surfaces, view_factors, write_view_factors, Grouping, MatrixFormat,
+    ViewFactorOptions, ViewFactorRun,
+};
 use rad_pipeline::{
-    parse_patch_list, parse_resolution, CasterKind, EstimateStats, Hemisphere, HemisphereConfig,
-    Mode, Progress, RenderConfig, RowMethod, SceneFile, Shading, Solver, Storage, View,
+    parse_patch_list, parse_resolution, CasterKind, Enclosure, EstimateStats, Hemisphere,
+    HemisphereConfig, Mode, Progress, RenderConfig, RowMethod, SceneFile, Shading, Solver, Storage,
+    View,
 };
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -53,6 +58,38 @@ enum Command {
         patches: String,
         #[command(flatten)]
         rows: RowFlags,
+        /// Write here instead of standard output (atomically: all or nothing).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Surface-to-surface view factors: F_IJ by patch, polygon or group, area to area, under an enclosure rule (JSON, CSV or Matrix Market).
+    Viewfactors {
+        scene: PathBuf,
+        /// What a row is: patch, polygon, or group (every polygon's "group" in the JSON
+        /// format; an OBJ file's objects and groups).
+        #[arg(long, value_enum, default_value_t = ByKind::Polygon)]
+        by: ByKind,
+        /// N: N x N hemispheres spread over each patch and averaged (area to area; 1 is
+        /// point to area, from the patch centre). Default 2.
+        #[arg(long, default_value_t = rad_pipeline::viewfactors::DEFAULT_ORIGINS)]
+        origins: u32,
+        /// Hemisphere cells, N_THETAxN_PHI.
+        #[arg(long, default_value = "180x720")]
+        resolution: String,
+        /// raw: as computed; reciprocal: A_I F_IJ = A_J F_JI, each row keeping its sum;
+        /// closed: reciprocal and every row summing to 1 (a closed scene only: rows that
+        /// leak are named).
+        #[arg(long, value_enum, default_value_t = EnclosureKind::Raw)]
+        enclosure: EnclosureKind,
+        /// json (surfaces and sparse rows), csv (a dense table, names in the first row
+        /// and column) or mtx (Matrix Market, for scipy.io.mmread). Default: from
+        /// --out's extension, else json.
+        #[arg(long, value_enum)]
+        format: Option<FormatKind>,
+        /// How hemispheres are made: scan, hierarchy or grid (the same factors, to the
+        /// bit). Default: the fastest for the scene.
+        #[arg(long)]
+        caster: Option<CasterKind>,
         /// Write here instead of standard output (atomically: all or nothing).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -130,6 +167,27 @@ enum StorageKind {
     Auto,
     Stored,
     MatrixFree,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum ByKind {
+    Patch,
+    Polygon,
+    Group,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum EnclosureKind {
+    Raw,
+    Reciprocal,
+    Closed,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum FormatKind {
+    Json,
+    Csv,
+    Mtx,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -246,6 +304,48 @@ fn run(cli: &Cli) -> Result<(), String> {
             let scene = load(scene)?;
             let method = rows.method(&scene);
             formfactors(&scene, resolution, patches, method, out.as_deref())
+        }
+        Command::Viewfactors {
+            scene,
+            by,
+            origins,
+            resolution,
+            enclosure,
+            format,
+            caster,
+            out,
+        } => {
+            let scene = load(scene)?;
+            let mut opts = ViewFactorOptions::for_scene(&scene.scene);
+            opts.by = match by {
+                ByKind::Patch => Grouping::Patch,
+                ByKind::Polygon => Grouping::Polygon,
+                ByKind::Group => Grouping::Group,
+            };
+            opts.origins = *origins;
+            opts.enclosure = match enclosure {
+                EnclosureKind::Raw => Enclosure::Raw,
+                EnclosureKind::Reciprocal => Enclosure::Reciprocal,
+                EnclosureKind::Closed => Enclosure::Closed,
+            };
+            if let Some(c) = caster {
+                opts.caster = *c;
+            }
+            let format = match format {
+                Some(FormatKind::Json) => MatrixFormat::Json,
+                Some(FormatKind::Csv) => MatrixFormat::Csv,
+                Some(FormatKind::Mtx) => MatrixFormat::Mtx,
+                None => match out
+                    .as_deref()
+                    .and_then(|p| p.extension())
+                    .and_then(|e| e.to_str())
+                {
+                    Some("csv") => MatrixFormat::Csv,
+                    Some("mtx") => MatrixFormat::Mtx,
+                    _ => MatrixFormat::Json,
+                },
+            };
+            viewfactors(&scene, resolution, &opts, format, out.as_deref())
         }
         Command::Solve {
             scene,
@@ -398,6 +498,86 @@ fn formfactors(
         }
         write_rows_footer(w)
     })
+}
+
+fn viewfactors(
+    scene: &SceneFile,
+    resolution: &str,
+    opts: &ViewFactorOptions,
+    format: MatrixFormat,
+    out: Option<&Path>,
+) -> Result<(), String> {
+    let hemi = hemisphere(resolution)?;
+    let n_surfaces = count_surfaces(&scene.scene, opts.by).map_err(|e| e.to_string())?;
+    check_format(format, n_surfaces).map_err(|e| e.to_string())?;
+    let max = rad_pipeline::viewfactors::MAX_ORIGINS;
+    if !(1..=max).contains(&opts.origins) {
+        return Err(format!(
+            "--origins {} is invalid: give 1 to {max} (N x N hemispheres a patch)",
+            opts.origins
+        ));
+    }
+    let n_patches = scene.scene.patches().len();
+    let per_patch = u64::from(opts.origins).pow(2);
+    let rays = n_patches as u64 * per_patch * hemi.n_cells() as u64;
+    let bar = if rays > 50_000_000 {
+        ProgressBar::new(n_patches as u64)
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{msg} [{bar:40}] {pos}/{len} patches, {elapsed} elapsed, eta {eta}",
+        )
+        .expect("a valid template")
+        .progress_chars("=> "),
+    );
+    bar.set_message(format!(
+        "view factors {}x{}, {per_patch} hemispheres a patch",
+        hemi.n_theta(),
+        hemi.n_phi()
+    ));
+    let vf = view_factors(&scene.scene, &hemi, opts, &|n| bar.set_position(n as u64))
+        .map_err(|e| e.to_string())?;
+    bar.finish_and_clear();
+    let leaking = (0..vf.names.len()).filter(|&i| vf.escaped[i] > 0.0).count();
+    if leaking > 0 {
+        eprintln!(
+            "note: {leaking} of {} surfaces lose form factor to rays that leave the scene (the scene is not closed)",
+            vf.names.len()
+        );
+    }
+    let backs: Vec<&str> = (0..vf.names.len())
+        .filter(|&i| vf.back[i] > 0.0)
+        .map(|i| vf.names[i].as_str())
+        .collect();
+    if !backs.is_empty() {
+        eprintln!(
+            "warning: {} surfaces see polygons from behind (first: {:?}); those rays count as \"back\", in no factor",
+            backs.len(),
+            backs[0]
+        );
+    }
+    let r = &vf.report;
+    eprintln!(
+        "enclosure {}: rows' |1 - sum| max {:.3e} (median {:.3e}), reciprocity error max {:.3e} (median {:.3e}); as computed: {:.3e} ({:.3e}) and {:.3e} ({:.3e}); largest change {:.3e}",
+        vf.enclosure.name(),
+        r.fixed.row_sum.max,
+        r.fixed.row_sum.median,
+        r.fixed.reciprocity.max,
+        r.fixed.reciprocity.median,
+        r.raw.row_sum.max,
+        r.raw.row_sum.median,
+        r.raw.reciprocity.max,
+        r.raw.reciprocity.median,
+        r.max_change
+    );
+    let run = ViewFactorRun {
+        scene: scene.path.display().to_string(),
+        scene_hash: scene.hash_text(),
+        resolution: (hemi.n_theta() as u32, hemi.n_phi() as u32),
+    };
+    emit(out, |w| write_view_factors(w, &vf, &run, format))
 }
 
 /// How `coherad solve` solves, from its flags.

@@ -33,8 +33,6 @@ pub enum PolygonProblem {
     },
     #[error("is not convex (or its vertices are not in order): it turns the wrong way at vertex {vertex}")]
     NonConvex { vertex: usize },
-    #[error("starts at a vertex that lies on a straight edge (vertices last, 0 and 1 are collinear), so it has no (u, v) frame: start the polygon at a corner")]
-    FirstVertexOnEdge,
     #[error("has a patch grid of {nu} x {nv}; both counts must be at least 1")]
     ZeroPatchGrid { nu: u64, nv: u64 },
     #[error("has a patch grid of {nu} x {nv}, over the limit of {limit} cells a polygon")]

@@ -32,9 +32,10 @@ const MIN_CELL_FRACTION: f64 = 1e-9;
 
 /// A polygon's (u, v) parametrisation: `p = origin + u·e_u + v·e_v`.
 ///
-/// u runs along the edge from vertex 0 to vertex 1, v along the edge from vertex 0 to the
-/// last vertex; the normal is `e_u × e_v` normalised, and the vertices turn
-/// counter-clockwise seen from the side it points to.
+/// For a triangle or a parallelogram u runs along the edge from vertex 0 to vertex 1, v
+/// along the edge from vertex 0 to the last vertex; for any other polygon (u, v) span its
+/// smallest bounding rectangle (see [`texture_axes`]). The normal is `e_u × e_v`
+/// normalised, and the vertices turn counter-clockwise seen from the side it points to.
 #[derive(Clone, Debug)]
 pub struct Polygon {
     // Hot fields first: they are all an intersection reads.
@@ -69,6 +70,11 @@ pub struct Polygon {
     frame: Frame,
     material: u32,
     area: f64,
+    /// The patch texture in f64: the (u, v) box the grid spans, the cell sizes, and the
+    /// frame (origin, e_u, e_v) its patches' corners and centres were placed with.
+    uv_box: [f64; 4],
+    cell_size: [f64; 2],
+    frame64: [DVec3; 3],
 }
 
 /// One patch: a (clipped) cell of a polygon's patch texture.
@@ -109,14 +115,9 @@ impl Polygon {
     ) -> Result<Built, PolygonProblem> {
         let n_vertices = vertices.len();
         let (pts, normal, diameter, area) = validated(&vertices, nu, nv)?;
-        let origin = pts[0];
-        let e_u = pts[1] - origin;
-        let e_v = pts[n_vertices - 1] - origin;
+        let (origin, e_u, e_v, parallelogram) =
+            texture_axes(&pts, normal, diameter).ok_or(PolygonProblem::Degenerate { area })?;
         let cross = e_u.cross(e_v);
-        if !(cross.dot(normal) > 1e-9 * diameter * diameter) {
-            // Vertex 1, 0 and the last vertex are collinear: no (u, v) frame.
-            return Err(PolygonProblem::FirstVertexOnEdge);
-        }
         let par_area = cross.dot(normal);
         // Dual basis: u = (p − o)·du, v = (p − o)·dv.
         let du = e_v.cross(normal) / e_v.cross(normal).dot(e_u);
@@ -125,9 +126,6 @@ impl Polygon {
             .iter()
             .map(|p| [(*p - origin).dot(du), (*p - origin).dot(dv)])
             .collect();
-        let parallelogram = n_vertices == 4
-            && (uv_vertices[2][0] - 1.0).abs() < 1e-6
-            && (uv_vertices[2][1] - 1.0).abs() < 1e-6;
         // Inward edge functions, scaled to world distance.
         let edges: Vec<[f32; 3]> = (0..n_vertices)
             .map(|k| {
@@ -192,6 +190,9 @@ impl Polygon {
             frame: Frame::from_normal_edge(normal_f, e_u_f),
             material,
             area,
+            uv_box,
+            cell_size: [cu, cv],
+            frame64: [origin, e_u, e_v],
         };
         Ok(Built { polygon, patches })
     }
@@ -432,6 +433,51 @@ impl Polygon {
     pub fn edge_functions(&self) -> &[[f32; 3]] {
         &self.edges
     }
+    /// `n × n` points spread over the patch of cell `cell`, each with its share of the
+    /// patch's area: the centroids of the cell's `n × n` equal sub-cells clipped to the
+    /// polygon (those with no area left out), their areas over their sum (so the
+    /// shares add up to 1). Averaging a quantity over them is the midpoint rule over
+    /// the patch. With `n = 1`, the one point is the patch's centre.
+    pub fn patch_origins(&self, cell: [u32; 2], n: u32) -> Vec<(Vec3, f64)> {
+        let [o, e_u, e_v] = self.frame64;
+        let [cu, cv] = self.cell_size;
+        // Sub-cell edges k = 0..=n along each axis; the first and last are the cell's
+        // own edges, computed as the patch texture computes them.
+        let edge = |k: u32, i: u32, lo: f64, size: f64| {
+            if k == n {
+                lo + f64::from(i + 1) * size
+            } else {
+                let base = lo + f64::from(i) * size;
+                base + size * f64::from(k) / f64::from(n)
+            }
+        };
+        let u_at = |k| edge(k, cell[0], self.uv_box[0], cu);
+        let v_at = |k| edge(k, cell[1], self.uv_box[2], cv);
+        let mut out = Vec::with_capacity((n * n) as usize);
+        let mut total = 0.0;
+        for b in 0..n {
+            let (v0, v1) = (v_at(b), v_at(b + 1));
+            for a in 0..n {
+                let (u0, u1) = (u_at(a), u_at(a + 1));
+                let square = vec![[u0, v0], [u1, v0], [u1, v1], [u0, v1]];
+                let piece = if self.parallelogram {
+                    square
+                } else {
+                    clip_convex(&square, &self.uv_vertices)
+                };
+                let (area, c) = polygon_area_centroid(&piece);
+                if area > MIN_CELL_FRACTION * cu * cv {
+                    total += area;
+                    out.push(((o + e_u * c[0] + e_v * c[1]).as_vec3(), area));
+                }
+            }
+        }
+        for p in &mut out {
+            p.1 /= total;
+        }
+        out
+    }
+
     /// Position of parameters (u, v).
     pub fn point(&self, u: f32, v: f32) -> Vec3 {
         self.origin + self.e_u * u + self.e_v * v
@@ -441,6 +487,97 @@ impl Polygon {
         let r = p - self.origin;
         (r.dot(self.du), r.dot(self.dv))
     }
+}
+
+/// The (u, v) frame of a valid polygon: `(origin, e_u, e_v, parallelogram)`, with
+/// `e_u × e_v` along `normal`.
+///
+/// A triangle or a parallelogram keeps its edge frame (origin at vertex 0, e_u to vertex
+/// 1, e_v to the last vertex: its cells are the polygon's own shape, cut evenly). Any
+/// other polygon gets its smallest-area bounding rectangle in its plane (one side along
+/// one of its edges, the first edge on ties; origin at the rectangle's corner in the
+/// plane of vertex 0; e_u and e_v its sides), so that a many-sided polygon, whose first
+/// and last edges may be short and nearly opposite, still gets cells of the requested
+/// size and shape. `None` when a triangle's edges from vertex 0 span no area.
+pub(crate) fn texture_axes(
+    pts: &[DVec3],
+    normal: DVec3,
+    diameter: f64,
+) -> Option<(DVec3, DVec3, DVec3, bool)> {
+    let n = pts.len();
+    let origin = pts[0];
+    let e_u = pts[1] - origin;
+    let e_v = pts[n - 1] - origin;
+    let cross = e_u.cross(e_v).dot(normal);
+    if cross > 1e-9 * diameter * diameter {
+        if n == 3 {
+            return Some((origin, e_u, e_v, false));
+        }
+        if n == 4 {
+            let du = e_v.cross(normal) / e_v.cross(normal).dot(e_u);
+            let dv = normal.cross(e_u) / normal.cross(e_u).dot(e_v);
+            let (u2, v2) = ((pts[2] - origin).dot(du), (pts[2] - origin).dot(dv));
+            if (u2 - 1.0).abs() < 1e-6 && (v2 - 1.0).abs() < 1e-6 {
+                return Some((origin, e_u, e_v, true));
+            }
+        }
+    } else if n == 3 {
+        return None;
+    }
+    let mut best: Option<(f64, DVec3, DVec3, [f64; 4])> = None;
+    for k in 0..n {
+        let edge = pts[(k + 1) % n] - pts[k];
+        let a = edge - normal * edge.dot(normal);
+        if !(a.length() > 1e-9 * diameter) {
+            continue;
+        }
+        let a = a.normalize();
+        let b = normal.cross(a);
+        let mut ext = [
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for p in pts {
+            let (s, t) = ((*p - origin).dot(a), (*p - origin).dot(b));
+            ext = [ext[0].min(s), ext[1].max(s), ext[2].min(t), ext[3].max(t)];
+        }
+        let area = (ext[1] - ext[0]) * (ext[3] - ext[2]);
+        if best.is_none_or(|(best_area, ..)| area < best_area * (1.0 - 1e-9)) {
+            best = Some((area, a, b, ext));
+        }
+    }
+    let (_, a, b, ext) = best?;
+    Some((
+        origin + a * ext[0] + b * ext[2],
+        a * (ext[1] - ext[0]),
+        b * (ext[3] - ext[2]),
+        false,
+    ))
+}
+
+/// The lengths of the sides of a polygon's (u, v) frame ([`texture_axes`]), for sizing
+/// its patch grid; `None` when its vertices make no valid polygon (its own checks then
+/// name the problem).
+pub(crate) fn texture_side_lengths(vertices: &[Vec3]) -> Option<(f64, f64)> {
+    let pts: Vec<DVec3> = vertices.iter().map(|p| p.as_dvec3()).collect();
+    if pts.len() < 3 || !pts.iter().all(|p| p.is_finite()) {
+        return None;
+    }
+    let mut newell = DVec3::ZERO;
+    for k in 0..pts.len() {
+        newell += pts[k].cross(pts[(k + 1) % pts.len()]);
+    }
+    let diameter = pts
+        .iter()
+        .flat_map(|a| pts.iter().map(move |b| (*a - *b).length()))
+        .fold(0.0, f64::max);
+    if !(newell.length() > 0.0) || !(diameter > 0.0) {
+        return None;
+    }
+    let (_, e_u, e_v, _) = texture_axes(&pts, newell.normalize(), diameter)?;
+    Some((e_u.length(), e_v.length()))
 }
 
 /// Checks `vertices` and the grid size: (the vertices in f64, the unit normal, the

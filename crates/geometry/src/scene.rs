@@ -68,6 +68,9 @@ pub struct PolygonDesc {
     /// Index into [`SceneDesc::materials`].
     pub material: usize,
     pub grid: PatchGrid,
+    /// The surface it belongs to, for surface-level view factors (`--by group`): the
+    /// JSON format's `group`, an OBJ file's object or group.
+    pub group: Option<String>,
 }
 
 /// A scene as described, before validation.
@@ -87,6 +90,7 @@ pub struct Scene {
     materials: Vec<Material>,
     camera: Option<Camera>,
     bounds: (Vec3, Vec3),
+    groups: Vec<Option<String>>,
 }
 
 impl Scene {
@@ -126,6 +130,7 @@ impl Scene {
         }
         let mut polygons = Vec::with_capacity(desc.polygons.len());
         let mut patches: Vec<Patch> = Vec::new();
+        let mut groups = Vec::with_capacity(desc.polygons.len());
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
         for (idx, pd) in desc.polygons.into_iter().enumerate() {
@@ -158,6 +163,7 @@ impl Scene {
                 });
             }
             let name = pd.name.clone();
+            groups.push(pd.group);
             let built = Polygon::build(
                 pd.name,
                 pd.vertices,
@@ -183,6 +189,7 @@ impl Scene {
             materials: desc.materials,
             camera: desc.camera,
             bounds: (lo, hi),
+            groups,
         })
     }
 
@@ -194,6 +201,10 @@ impl Scene {
     }
     pub fn materials(&self) -> &[Material] {
         &self.materials
+    }
+    /// The group polygon `polygon` belongs to, if it names one.
+    pub fn group(&self, polygon: usize) -> Option<&str> {
+        self.groups.get(polygon).and_then(|g| g.as_deref())
     }
     pub fn camera(&self) -> Option<&Camera> {
         self.camera.as_ref()
@@ -244,9 +255,11 @@ fn grid_cells(pd: &PolygonDesc) -> Result<(u64, u64), PolygonProblem> {
                     count: pd.vertices.len(),
                 });
             }
-            let v = &pd.vertices;
-            let lu = (v[1] - v[0]).length() as f64;
-            let lv = (v[v.len() - 1] - v[0]).length() as f64;
+            // The sides of the polygon's (u, v) frame (invalid vertices get one cell:
+            // the polygon's own checks then name their problem).
+            let Some((lu, lv)) = crate::polygon::texture_side_lengths(&pd.vertices) else {
+                return Ok((1, 1));
+            };
             let cells = |l: f64| {
                 let c = (l / size).round();
                 if c.is_finite() {

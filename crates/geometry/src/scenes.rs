@@ -29,6 +29,7 @@ pub(crate) fn rect(
         vertices: vec![o, o + e_u, o + e_u + e_v, o + e_v],
         material,
         grid,
+        group: None,
     }
 }
 

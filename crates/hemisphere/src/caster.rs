@@ -11,6 +11,26 @@ use crate::{Hemisphere, ItemBuffer, ScanScratch};
 use rad_core::{Hit, PatchId, PolygonId, Ray, RayCast, Vec3};
 use rad_geometry::Scene;
 
+/// Where a hemisphere stands: a point on a polygon (a patch's centre, or any point of
+/// its patch when rows are averaged over several origins); the hemisphere takes the
+/// polygon's frame, and its rays skip the polygon.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Viewpoint {
+    pub point: Vec3,
+    pub polygon: PolygonId,
+}
+
+impl Viewpoint {
+    /// The centre of `patch`, on its polygon.
+    pub fn of_patch(scene: &Scene, patch: PatchId) -> Viewpoint {
+        let p = &scene.patches()[patch as usize];
+        Viewpoint {
+            point: p.center,
+            polygon: p.polygon,
+        }
+    }
+}
+
 /// Fills exact item buffers of one scene's hemispheres, with per-thread scratch.
 ///
 /// The scene passed to each call must be the one the caster was made for (a voxel
@@ -21,12 +41,26 @@ pub trait Caster: Sync {
 
     fn scratch(&self) -> Self::Scratch;
 
-    /// The exact item buffer of `patch`'s hemisphere `hemi`, into `buf`.
+    /// The exact item buffer of `patch`'s hemisphere `hemi` (from its centre), into
+    /// `buf`.
     fn item_buffer(
         &self,
         scene: &Scene,
         hemi: &Hemisphere,
         patch: PatchId,
+        scratch: &mut Self::Scratch,
+        buf: &mut ItemBuffer,
+    ) {
+        self.item_buffer_at(scene, hemi, Viewpoint::of_patch(scene, patch), scratch, buf)
+    }
+
+    /// The exact item buffer of the hemisphere `hemi` at any point of a polygon (in
+    /// its frame), into `buf`: [`Caster::item_buffer`] is this at a patch's centre.
+    fn item_buffer_at(
+        &self,
+        scene: &Scene,
+        hemi: &Hemisphere,
+        at: Viewpoint,
         scratch: &mut Self::Scratch,
         buf: &mut ItemBuffer,
     );
@@ -63,15 +97,15 @@ impl<R: RayCast> Caster for R {
         self.new_scratch()
     }
 
-    fn item_buffer(
+    fn item_buffer_at(
         &self,
         scene: &Scene,
         hemi: &Hemisphere,
-        patch: PatchId,
+        at: Viewpoint,
         scratch: &mut R::Scratch,
         buf: &mut ItemBuffer,
     ) {
-        hemi.cast(scene, self, patch, scratch, buf)
+        hemi.cast_at(scene, self, at, scratch, buf)
     }
 
     fn closest_hits(
@@ -105,15 +139,15 @@ impl Caster for Scan {
         ScanScratch::default()
     }
 
-    fn item_buffer(
+    fn item_buffer_at(
         &self,
         scene: &Scene,
         hemi: &Hemisphere,
-        patch: PatchId,
+        at: Viewpoint,
         scratch: &mut ScanScratch,
         buf: &mut ItemBuffer,
     ) {
-        hemi.scan(scene, patch, scratch, buf)
+        hemi.scan_at(scene, at, scratch, buf)
     }
 
     fn closest_hits(

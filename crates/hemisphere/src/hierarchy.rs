@@ -21,7 +21,7 @@
 //! a hit nearer than that: the polygon would lose there anyway.
 
 use crate::scan::{edge_reach, padded_corners, pole_dip, wrap, PoleDip, ScanOrigin};
-use crate::{Caster, Hemisphere, ItemBuffer, ScanScratch};
+use crate::{Caster, Hemisphere, ItemBuffer, ScanScratch, Viewpoint};
 use glam::DVec3;
 use rad_core::{Hit, PatchId, PolygonId, Ray, RayCast, Vec3};
 use rad_geometry::{Polygon, PolygonTerms, Scene, Shape};
@@ -296,8 +296,20 @@ impl Hierarchy {
         s: &mut HierarchyScratch,
         buf: &mut ItemBuffer,
     ) {
+        self.scan_at(scene, hemi, Viewpoint::of_patch(scene, patch), s, buf)
+    }
+
+    /// [`Hierarchy::scan`] from any point of a polygon.
+    pub fn scan_at(
+        &self,
+        scene: &Scene,
+        hemi: &Hemisphere,
+        from: Viewpoint,
+        s: &mut HierarchyScratch,
+        buf: &mut ItemBuffer,
+    ) {
         self.check(scene);
-        let mut at = hemi.scan_begin(scene, patch, &mut s.scan);
+        let mut at = hemi.scan_begin(scene, from, &mut s.scan);
         // Subtrees behind the plane may be skipped whole only where the grid culls
         // them in every ring.
         let forward = Hemisphere::scan_all_forward(&s.scan);
@@ -1018,15 +1030,15 @@ impl Caster for Hierarchy {
         HierarchyScratch::default()
     }
 
-    fn item_buffer(
+    fn item_buffer_at(
         &self,
         scene: &Scene,
         hemi: &Hemisphere,
-        patch: PatchId,
+        at: Viewpoint,
         scratch: &mut HierarchyScratch,
         buf: &mut ItemBuffer,
     ) {
-        self.scan(scene, hemi, patch, scratch, buf)
+        self.scan_at(scene, hemi, at, scratch, buf)
     }
 
     fn closest_hits(

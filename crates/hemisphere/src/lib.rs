@@ -15,12 +15,12 @@ mod lambert;
 mod row;
 mod scan;
 
-pub use caster::{Caster, Scan};
+pub use caster::{Caster, Scan, Viewpoint};
 pub use cells::{delta_form_factors, DeltaRule, Hemisphere, HemisphereConfig, MAX_CELLS};
 pub use hierarchy::{Hierarchy, HierarchyRays, HierarchyScratch, HierarchyStats, TILE};
 pub use lambert::point_to_polygon_form_factor;
 pub use rad_core::{BACK, ESCAPED};
-pub use row::{compute_rows, ItemBuffer, Row, RowAccumulator};
+pub use row::{compute_area_rows, compute_rows, ItemBuffer, Row, RowAccumulator, MAX_ORIGINS};
 pub use scan::{NearestHits, ScanScratch, ScanStats};
 
 /// Errors from setting up a hemisphere.
@@ -37,4 +37,6 @@ pub enum Error {
     PhiShift { shift: f64 },
     #[error("patch {patch} is out of range (the scene has {n_patches} patches)")]
     PatchOutOfRange { patch: u64, n_patches: usize },
+    #[error("{origins} origins a patch side is invalid: give 1 to {limit} (origins x origins hemispheres a patch)")]
+    Origins { origins: u64, limit: u32 },
 }

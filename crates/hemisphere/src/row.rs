@@ -1,6 +1,6 @@
 //! Item buffers (what each cell sees) and sparse form-factor rows.
 
-use crate::{Caster, Error, Hemisphere};
+use crate::{Caster, Error, Hemisphere, Viewpoint};
 use rad_core::{PatchId, RayCast, BACK, ESCAPED};
 use rad_geometry::Scene;
 use rayon::prelude::*;
@@ -86,8 +86,25 @@ impl Hemisphere {
         scratch: &mut C::Scratch,
         buf: &mut ItemBuffer,
     ) {
-        let p = &scene.patches()[patch as usize];
-        let frame = scene.polygons()[p.polygon as usize].frame();
+        self.cast_at(
+            scene,
+            caster,
+            Viewpoint::of_patch(scene, patch),
+            scratch,
+            buf,
+        )
+    }
+
+    /// Casts one ray per cell from `at`; fills `buf`.
+    pub fn cast_at<C: RayCast>(
+        &self,
+        scene: &Scene,
+        caster: &C,
+        at: Viewpoint,
+        scratch: &mut C::Scratch,
+        buf: &mut ItemBuffer,
+    ) {
+        let frame = scene.polygons()[at.polygon as usize].frame();
         let polygons = scene.polygons();
         buf.patch.clear();
         buf.dist.clear();
@@ -99,7 +116,7 @@ impl Hemisphere {
         for ring in self.directions().chunks(self.n_phi()) {
             dirs.clear();
             dirs.extend(ring.iter().map(|d| frame.world_from_local(*d)));
-            caster.closest_hits_from(p.center, p.polygon, &dirs, scratch, &mut hits);
+            caster.closest_hits_from(at.point, at.polygon, &dirs, scratch, &mut hits);
             for hit in &hits {
                 let (id, dist) = match hit {
                     Some(h) if h.front => (polygons[h.polygon as usize].patch_at(h.u, h.v), h.t),
@@ -108,6 +125,29 @@ impl Hemisphere {
                 };
                 buf.patch.push(id);
                 buf.dist.push(dist);
+            }
+        }
+    }
+
+    /// Adds `weight` times the form factors of `buf`'s cells to `acc` (patches),
+    /// `back` and `escaped`, cell by cell in the order of [`Hemisphere::row_from_items`].
+    pub fn accumulate_items(
+        &self,
+        buf: &ItemBuffer,
+        weight: f64,
+        acc: &mut RowAccumulator,
+        back: &mut f64,
+        escaped: &mut f64,
+    ) {
+        let n_phi = self.n_phi();
+        for (ring, ff) in self.ring_form_factors().iter().enumerate() {
+            let ff = weight * ff;
+            for &id in &buf.patch[ring * n_phi..(ring + 1) * n_phi] {
+                match id {
+                    ESCAPED => *escaped += ff,
+                    BACK => *back += ff,
+                    j => acc.add(j, ff),
+                }
             }
         }
     }
@@ -150,6 +190,22 @@ pub fn compute_rows<C: Caster>(
     patches: &[PatchId],
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Vec<Row>, Error> {
+    in_parallel(scene, caster, patches, progress, |p, scratch, buf, acc| {
+        caster.item_buffer(scene, hemisphere, p, scratch, buf);
+        hemisphere.row_from_items(p, buf, acc)
+    })
+}
+
+/// `row` of each of `patches`, in parallel (rayon's current pool) with per-thread
+/// scratch, item buffer and accumulator, after checking the ids; `progress(n)` after
+/// each row.
+fn in_parallel<C: Caster>(
+    scene: &Scene,
+    caster: &C,
+    patches: &[PatchId],
+    progress: &(dyn Fn(usize) + Sync),
+    row: impl Fn(PatchId, &mut C::Scratch, &mut ItemBuffer, &mut RowAccumulator) -> Row + Sync,
+) -> Result<Vec<Row>, Error> {
     let n_patches = scene.patches().len();
     if let Some(&bad) = patches.iter().find(|&&p| p as usize >= n_patches) {
         return Err(Error::PatchOutOfRange {
@@ -169,11 +225,58 @@ pub fn compute_rows<C: Caster>(
                 )
             },
             |(scratch, buf, acc), &p| {
-                caster.item_buffer(scene, hemisphere, p, scratch, buf);
-                let row = hemisphere.row_from_items(p, buf, acc);
+                let made = row(p, scratch, buf, acc);
                 progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
-                row
+                made
             },
         )
         .collect())
+}
+
+/// The largest number of origins a patch side [`compute_area_rows`] takes (256² = 65,536
+/// hemispheres a patch).
+pub const MAX_ORIGINS: u32 = 256;
+
+/// Rows of `patches` averaged over `origins × origins` hemispheres a patch, at the points
+/// [`rad_geometry::Polygon::patch_origins`] spreads over it, each weighted by its share
+/// of the patch's area: F_ij of the patch's area to patch j's, by the midpoint rule over
+/// i (where [`compute_rows`] takes i's centre alone: point to area). With `origins = 1`
+/// this is [`compute_rows`], to the bit. In parallel over patches, the same whatever
+/// the thread count.
+pub fn compute_area_rows<C: Caster>(
+    scene: &Scene,
+    caster: &C,
+    hemisphere: &Hemisphere,
+    patches: &[PatchId],
+    origins: u32,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Vec<Row>, Error> {
+    if !(1..=MAX_ORIGINS).contains(&origins) {
+        return Err(Error::Origins {
+            origins: u64::from(origins),
+            limit: MAX_ORIGINS,
+        });
+    }
+    if origins == 1 {
+        return compute_rows(scene, caster, hemisphere, patches, progress);
+    }
+    in_parallel(scene, caster, patches, progress, |p, scratch, buf, acc| {
+        let patch = &scene.patches()[p as usize];
+        let polygon = &scene.polygons()[patch.polygon as usize];
+        let (mut back, mut escaped) = (0.0, 0.0);
+        for (point, weight) in polygon.patch_origins(patch.cell, origins) {
+            let at = Viewpoint {
+                point,
+                polygon: patch.polygon,
+            };
+            caster.item_buffer_at(scene, hemisphere, at, scratch, buf);
+            hemisphere.accumulate_items(buf, weight, acc, &mut back, &mut escaped);
+        }
+        Row {
+            patch: p,
+            entries: acc.take(),
+            back,
+            escaped,
+        }
+    })
 }

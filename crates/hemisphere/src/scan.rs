@@ -15,7 +15,7 @@
 //! are tested; they are conservative, and a polygon whose box could be unreliable (its
 //! plane passes within rounding of the origin) is tested on every cell.
 
-use crate::{Hemisphere, ItemBuffer};
+use crate::{Hemisphere, ItemBuffer, Viewpoint};
 use glam::{DVec3, Vec3};
 use rad_core::{with_isa, Hit, Isa, PatchId, PolygonId, BACK, ESCAPED, NO_POLYGON};
 use rad_geometry::{OriginTerms, Polygon, Scene, Shape, Triangle};
@@ -115,7 +115,18 @@ impl Hemisphere {
         scratch: &mut ScanScratch,
         buf: &mut ItemBuffer,
     ) {
-        let mut at = self.scan_begin(scene, patch, scratch);
+        self.scan_at(scene, Viewpoint::of_patch(scene, patch), scratch, buf)
+    }
+
+    /// [`Hemisphere::scan`] from any point of a polygon.
+    pub fn scan_at(
+        &self,
+        scene: &Scene,
+        from: Viewpoint,
+        scratch: &mut ScanScratch,
+        buf: &mut ItemBuffer,
+    ) {
+        let mut at = self.scan_begin(scene, from, scratch);
         let tests_before = scratch.hits.tests;
         for (id, poly) in scene.polygons().iter().enumerate() {
             if id != at.own as usize {
@@ -131,18 +142,17 @@ impl Hemisphere {
     pub(crate) fn scan_begin(
         &self,
         scene: &Scene,
-        patch: PatchId,
+        from: Viewpoint,
         s: &mut ScanScratch,
     ) -> ScanOrigin {
-        let p = &scene.patches()[patch as usize];
-        let own = p.polygon;
+        let own = from.polygon;
         let polygon = &scene.polygons()[own as usize];
         s.hits.begin(self, scene, own);
         s.stats.hemispheres += 1;
         let frame = polygon.frame();
         ScanOrigin {
-            o: p.center,
-            o64: p.center.as_dvec3(),
+            o: from.point,
+            o64: from.point.as_dvec3(),
             own,
             own_n: polygon.normal().as_dvec3(),
             frame: [frame.t, frame.b, frame.n].map(Vec3::as_dvec3),

@@ -11,6 +11,7 @@ mod rows;
 mod scene_file;
 pub mod solve;
 mod storage;
+pub mod viewfactors;
 
 pub use method::{CasterKind, RowMethod};
 // The vocabulary the front ends need, so that they see the libraries only through
@@ -19,7 +20,7 @@ pub use parse::{parse_patch_list, parse_resolution};
 pub use rad_estimator::{EstimateStats, Mode};
 pub use rad_hemisphere::{Hemisphere, HemisphereConfig};
 pub use rad_render::{RenderConfig, Shading, View};
-pub use rad_solver::{SolveConfig, Solver};
+pub use rad_solver::{Enclosure, SolveConfig, Solver};
 pub use rows::{rows, rows_streamed, Rows, STREAM_CHUNK};
 pub(crate) use rows::{with_caster as rows_with_caster, CasterJob};
 pub use scene_file::SceneFile;

@@ -93,15 +93,12 @@ pub fn rows_streamed(
         type Out = EstimateStats;
         fn run<C: Caster>(self, caster: &C) -> Result<EstimateStats, Error> {
             let mut stats = EstimateStats::default();
-            let mut pending: Option<Rows> = None;
             let chunks = stream_chunks(self.scene);
             let sink = self.sink;
-            for chunk in chunks.iter().map(Some).chain([None]) {
-                let make = || -> Result<Option<Rows>, Error> {
-                    let Some(r) = chunk else { return Ok(None) };
-                    let patches: Vec<PatchId> = r.clone().map(|p| p as PatchId).collect();
-                    let base = r.start;
-                    let progress = |k| (self.progress)(base + k);
+            for_each_chunk(
+                &chunks,
+                |r| {
+                    let (patches, progress) = chunk_patches(r, self.progress);
                     let made = rows_with(
                         self.scene,
                         caster,
@@ -111,17 +108,13 @@ pub fn rows_streamed(
                         &progress,
                     )?;
                     check_finite(&made)?;
-                    Ok(Some(made))
-                };
-                let previous = pending.take();
-                let take = || previous.map_or(Ok(()), &mut *sink);
-                let (made, taken) = rayon::join(make, take);
-                taken?;
-                if let Some(made) = made? {
+                    Ok(made)
+                },
+                &mut |made: Rows| {
                     stats.add(&made.stats);
-                    pending = Some(made);
-                }
-            }
+                    sink(made)
+                },
+            )?;
             Ok(stats)
         }
     }
@@ -138,9 +131,27 @@ pub fn rows_streamed(
     )
 }
 
+/// Makes each chunk (in parallel inside `make`) and hands it to `sink` in order, the
+/// next chunk made while `sink` takes the last: two chunks held at a time.
+pub(crate) fn for_each_chunk<T: Send>(
+    chunks: &[std::ops::Range<usize>],
+    make: impl Fn(&std::ops::Range<usize>) -> Result<T, Error> + Sync,
+    sink: &mut (dyn FnMut(T) -> Result<(), Error> + Send),
+) -> Result<(), Error> {
+    let mut pending: Option<T> = None;
+    for chunk in chunks.iter().map(Some).chain([None]) {
+        let previous = pending.take();
+        let take = || previous.map_or(Ok(()), &mut *sink);
+        let (made, taken) = rayon::join(|| chunk.map(&make).transpose(), take);
+        taken?;
+        pending = made?;
+    }
+    Ok(())
+}
+
 /// The patch ranges of [`rows_streamed`]'s chunks: whole polygons, each chunk at least
 /// [`STREAM_CHUNK`] patches but the last.
-fn stream_chunks(scene: &Scene) -> Vec<std::ops::Range<usize>> {
+pub(crate) fn stream_chunks(scene: &Scene) -> Vec<std::ops::Range<usize>> {
     let patches = scene.patches();
     let mut out = Vec::new();
     let mut start = 0;
@@ -174,10 +185,26 @@ pub(crate) fn with_caster<J: CasterJob>(
     }
 }
 
+/// The patch ids of a chunk, and its progress callback offset to the chunk's start.
+pub(crate) fn chunk_patches<'p>(
+    r: &std::ops::Range<usize>,
+    progress: &'p (dyn Fn(usize) + Sync),
+) -> (Vec<PatchId>, impl Fn(usize) + Sync + 'p) {
+    let base = r.start;
+    (r.clone().map(|p| p as PatchId).collect(), move |k| {
+        progress(base + k)
+    })
+}
+
 /// Refuses rows holding a non-finite value. (Form factors are sums of finite delta form
 /// factors: a non-finite one is a bug.)
 fn check_finite(made: &Rows) -> Result<(), Error> {
-    for r in &made.rows {
+    check_rows(&made.rows)
+}
+
+/// [`check_finite`] of bare rows.
+pub(crate) fn check_rows(rows: &[Row]) -> Result<(), Error> {
+    for r in rows {
         let values = r.entries.iter().map(|e| e.1).chain([r.back, r.escaped]);
         if let Some(v) = values.into_iter().find(|v| !v.is_finite()) {
             return Err(Error::NonFinite {

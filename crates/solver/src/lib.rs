@@ -9,12 +9,16 @@
 //! order of unshot power; both stop on the same residual and reach the same solution.
 //! Non-convergence is data ([`SolveReport::converged`]), not an error.
 
+mod enclosure;
 mod matrix;
 mod operator;
 mod pairs;
 mod shooting;
 mod solve;
 
+pub use enclosure::{
+    Enclosure, EnclosureErrors, EnclosureReport, ErrorQuantiles, SurfaceMatrix, LEAK_TOLERANCE,
+};
 pub use matrix::{FormFactors, Reciprocity};
 pub use operator::Operator;
 pub use pairs::{PairBuilder, PairMatrix};
@@ -62,6 +66,12 @@ pub enum Error {
         what: &'static str,
         value: [f64; 3],
         rule: &'static str,
+    },
+    #[error("{count} rows leak, so the scene is no closed enclosure (a row's form factors sum below 1 - {tolerance}: rays escape, or meet the backs of polygons); the first (row, sum): {first:?}; use --enclosure reciprocal or raw, or close the scene")]
+    Leaks {
+        count: usize,
+        first: Vec<(u32, f64)>,
+        tolerance: f64,
     },
     #[error("no reciprocal scaling found after {iterations} iterations (the pattern of the form factors admits no symmetric matrix with these row sums)")]
     NoReciprocalScaling { iterations: usize },

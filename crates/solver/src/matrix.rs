@@ -366,7 +366,6 @@ pub(crate) fn balance(
             .collect();
         let r_norm = dot(&r, &r).sqrt();
         // Solve only as far as the step can use: to a tenth of the tolerance at the end.
-        // Solve only as far as the step can use: to a tenth of the tolerance at the end.
         let eta = worst.sqrt().max(0.1 * tolerance / worst).min(0.5);
         let mut delta = vec![0.0; n];
         let mut res = r;

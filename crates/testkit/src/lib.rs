@@ -71,6 +71,7 @@ pub fn convex_polygon(idx: usize) -> impl Strategy<Value = PolygonDesc> {
         vertices: pts.into_iter().map(|p: Vec3| p + c).collect(),
         material: 0,
         grid: PatchGrid::Cells { nu, nv },
+        group: None,
     })
 }
 

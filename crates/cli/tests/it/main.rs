@@ -522,3 +522,72 @@ fn scenes_beyond_the_numeric_range_are_refused() {
         assert!(!out_file.exists());
     }
 }
+
+/// `coherad viewfactors`: the cube's face factors as Matrix Market (chosen by the
+/// extension), closed; bad flags refused with nothing written.
+#[test]
+fn view_factors_of_the_cube() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = bench_scene("cube.json");
+    let out = dir.path().join("cube.mtx");
+    let run = coherad(&[
+        "viewfactors",
+        scene.to_str().unwrap(),
+        "--resolution",
+        "45x180",
+        "--enclosure",
+        "closed",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.starts_with("%%MatrixMarket matrix coordinate real general\n"));
+    let mut sums = [0.0f64; 6];
+    let mut lines = text.lines().filter(|l| !l.starts_with('%'));
+    assert_eq!(lines.next().unwrap(), "6 6 30");
+    for l in lines {
+        let t: Vec<&str> = l.split_whitespace().collect();
+        let (i, j, f): (usize, usize, f64) = (
+            t[0].parse().unwrap(),
+            t[1].parse().unwrap(),
+            t[2].parse().unwrap(),
+        );
+        assert_ne!(i, j);
+        sums[i - 1] += f;
+    }
+    for s in sums {
+        assert!((s - 1.0).abs() < 1e-9, "{sums:?}");
+    }
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("enclosure closed"), "{stderr}");
+
+    for (args, says) in [
+        (vec!["--origins", "0"], "--origins 0 is invalid"),
+        (vec!["--by", "group"], "belongs to no group"),
+        (
+            vec!["--by", "patch", "--format", "csv"],
+            "a CSV table of 14400 surfaces",
+        ),
+    ] {
+        let bad = dir.path().join("bad.json");
+        // The last case on the loft (14,400 patches): refused before any work.
+        let on = if args.contains(&"csv") {
+            bench_scene("loft.json")
+        } else {
+            scene.clone()
+        };
+        let on = on.to_str().unwrap().to_string();
+        let mut all = vec!["viewfactors", on.as_str(), "--resolution", "9x36"];
+        all.extend(args);
+        all.extend(["--out", bad.to_str().unwrap()]);
+        let r = coherad(&all);
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert!(!r.status.success() && stderr.contains(says), "{stderr}");
+        assert!(!bad.exists());
+    }
+}

@@ -47,6 +47,9 @@ struct FilePolygon {
     patches: Option<[u64; 2]>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     patch_size: Option<f64>,
+    /// The surface it belongs to (`coherad viewfactors --by group`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    group: Option<String>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -159,6 +162,7 @@ pub fn scene_desc_from_json(
             vertices,
             material,
             grid,
+            group: p.group,
         });
     }
     let camera = file.camera.map(|c| Camera {
@@ -196,6 +200,7 @@ pub fn scene_desc_to_json(desc: &SceneDesc, description: Option<&str>) -> String
                     indices: None,
                     patches,
                     patch_size,
+                    group: p.group.clone(),
                 }
             })
             .collect(),
@@ -237,6 +242,7 @@ pub fn scene_desc_to_json_indexed(desc: &SceneDesc, description: Option<&str>) -
             indices: Some(indices),
             patches,
             patch_size,
+            group: p.group.clone(),
         });
     }
     let mut s = String::from("{\n");

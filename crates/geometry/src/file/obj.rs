@@ -97,6 +97,7 @@ pub fn load_obj(path: &Path, patch_size: f64) -> Result<SceneDesc, Error> {
                 vertices,
                 material,
                 grid: PatchGrid::Size(patch_size),
+                group: Some(model.name.clone()),
             });
             start += arity;
         }

@@ -106,6 +106,7 @@ pub fn cornell_box(patch_size: f32) -> SceneDesc {
         vertices: pts.iter().copied().map(v).collect(),
         material,
         grid: size,
+        group: None,
     };
     let mut polygons = Vec::new();
     // Floor, cut around the two block footprints (y = 0, normal +y).

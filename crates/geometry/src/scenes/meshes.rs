@@ -39,6 +39,7 @@ fn loft_cut(cut: impl Fn(&[Vec3]) -> Vec<Vec<Vec3>>) -> SceneDesc {
                 vertices,
                 material,
                 grid: ONE,
+                group: None,
             });
         }
     }
@@ -136,6 +137,7 @@ pub fn blob_room() -> SceneDesc {
             vertices: f.iter().map(|&i| at[i]).collect(),
             material: 1,
             grid: ONE,
+            group: None,
         });
     }
     SceneDesc {

@@ -18,6 +18,7 @@ fn one(vertices: Vec<Vec3>, grid: PatchGrid) -> SceneDesc {
             vertices,
             material: 0,
             grid,
+            group: None,
         }],
         camera: None,
     }
@@ -115,20 +116,6 @@ fn stars_are_not_convex() {
         problem(one(star, G)),
         PolygonProblem::NonConvex { .. }
     ));
-}
-
-#[test]
-fn a_first_vertex_on_a_straight_edge_is_named() {
-    let v = vec![
-        Vec3::new(1.0, 0.0, 0.0),
-        Vec3::new(2.0, 0.0, 0.0),
-        Vec3::new(2.0, 1.0, 0.0),
-        Vec3::new(0.0, 1.0, 0.0),
-        Vec3::ZERO,
-    ];
-    let p = problem(one(v, G));
-    assert_eq!(p, PolygonProblem::FirstVertexOnEdge);
-    assert!(p.to_string().contains("start the polygon at a corner"));
 }
 
 #[test]
@@ -337,6 +324,7 @@ fn scenes_outside_the_numeric_range_are_refused() {
         ],
         material: 0,
         grid: rad_geometry::PatchGrid::Cells { nu: 1, nv: 1 },
+        group: None,
     });
     let e = Scene::new(d).unwrap_err().to_string();
     assert!(

@@ -1,5 +1,6 @@
 //! Integration tests of rad-geometry.
 
 mod errors;
+mod frames;
 mod props;
 mod scenes;

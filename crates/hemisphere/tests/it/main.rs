@@ -1,5 +1,6 @@
 //! Integration tests of rad-hemisphere.
 
 mod analytic;
+mod origins;
 mod props;
 mod scan;

@@ -214,6 +214,7 @@ fn skewed_pentagon(
             .collect(),
         material: 0,
         grid: rad_geometry::PatchGrid::Cells { nu: 3, nv: 3 },
+        group: None,
     }
 }
 
@@ -290,6 +291,7 @@ fn scan_matches_the_grid_around_a_pentagon_off_its_plane() {
         .to_vec(),
         material: 0,
         grid: rad_geometry::PatchGrid::Cells { nu: 2, nv: 2 },
+        group: None,
     }];
     for k in 0..300 {
         let side = if k % 2 == 0 { 1.0 } else { -1.0 };
@@ -307,6 +309,7 @@ fn scan_matches_the_grid_around_a_pentagon_off_its_plane() {
             vertices: vec![o - t - b, o + t - b, o + t + b, o - t + b],
             material: 0,
             grid: rad_geometry::PatchGrid::Cells { nu: 1, nv: 1 },
+            group: None,
         });
     }
     let scene = Scene::new(SceneDesc {
@@ -412,8 +415,8 @@ proptest! {
                 emission: rad_core::Rgb([0.0; 3]),
             }],
             polygons: vec![
-                PolygonDesc { name: "floor".into(), vertices: floor, material: 0, grid: one },
-                PolygonDesc { name: "tilted".into(), vertices: tilted, material: 0, grid: one },
+                PolygonDesc { name: "floor".into(), vertices: floor, material: 0, grid: one, group: None },
+                PolygonDesc { name: "tilted".into(), vertices: tilted, material: 0, grid: one, group: None },
             ],
             camera: None,
         };

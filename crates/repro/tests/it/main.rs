@@ -1,3 +1,4 @@
 //! Integration tests of rad-repro: physics invariants on the bench scenes.
 
 mod invariants;
+mod viewfactors;

@@ -1,0 +1,455 @@
+//! Surface-to-surface view factors: a scene's rows (averaged over several origins a
+//! patch, for area-to-area factors) gathered by patch, polygon or named group, under an
+//! enclosure rule, and written as JSON, CSV or Matrix Market.
+
+use crate::rows::{check_rows, chunk_patches, for_each_chunk, stream_chunks};
+use crate::{rows_with_caster, CasterJob, CasterKind, Error};
+use rad_geometry::Scene;
+pub use rad_hemisphere::MAX_ORIGINS;
+use rad_hemisphere::{compute_area_rows, Caster, Hemisphere, Row};
+use rad_solver::{Enclosure, EnclosureReport, SurfaceMatrix};
+use std::collections::HashMap;
+use std::io::Write;
+
+/// What a row of the matrix is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Grouping {
+    /// Patch to patch (the hemisphere rows themselves).
+    Patch,
+    /// Polygon to polygon.
+    Polygon,
+    /// Named group to named group (a polygon's `group`: the JSON format's field, an OBJ
+    /// object or group).
+    Group,
+}
+
+impl Grouping {
+    pub const ALL: [Grouping; 3] = [Grouping::Patch, Grouping::Polygon, Grouping::Group];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Grouping::Patch => "patch",
+            Grouping::Polygon => "polygon",
+            Grouping::Group => "group",
+        }
+    }
+}
+
+/// Origins a patch side unless told otherwise: 2 × 2 hemispheres a patch, the fewest
+/// that put the closed forms of the validation suite within 1e-3 at their patch grids
+/// (see the README's table; one origin leaves close surfaces point to area).
+pub const DEFAULT_ORIGINS: u32 = 2;
+
+/// How to make a scene's view factors.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewFactorOptions {
+    pub by: Grouping,
+    /// Origins a patch side (`origins²` hemispheres a patch).
+    pub origins: u32,
+    pub enclosure: Enclosure,
+    pub caster: CasterKind,
+}
+
+impl ViewFactorOptions {
+    /// The defaults for `scene`: by polygon, [`DEFAULT_ORIGINS`], raw, the fastest caster.
+    pub fn for_scene(scene: &Scene) -> ViewFactorOptions {
+        ViewFactorOptions {
+            by: Grouping::Polygon,
+            origins: DEFAULT_ORIGINS,
+            enclosure: Enclosure::Raw,
+            caster: CasterKind::fastest_for(scene.polygons().len()),
+        }
+    }
+}
+
+/// A scene's surface-to-surface view factors.
+#[derive(Clone, Debug)]
+pub struct ViewFactors {
+    pub by: Grouping,
+    pub origins: u32,
+    pub enclosure: Enclosure,
+    /// One name a surface: the polygon's or group's name, or `patch N`.
+    pub names: Vec<String>,
+    /// The factors under the enclosure rule (areas included).
+    pub matrix: SurfaceMatrix,
+    /// Per surface, the area-weighted form factor of rays that left the scene, and of
+    /// rays that met the back of a polygon (as computed, before the enclosure rule).
+    pub escaped: Vec<f64>,
+    pub back: Vec<f64>,
+    pub report: EnclosureReport,
+}
+
+/// The surfaces of `scene` under `by`: (each patch's surface, the surfaces' names).
+fn surfaces(scene: &Scene, by: Grouping) -> Result<(Vec<u32>, Vec<String>), Error> {
+    let patches = scene.patches();
+    match by {
+        Grouping::Patch => Ok((
+            (0..patches.len() as u32).collect(),
+            (0..patches.len()).map(|p| format!("patch {p}")).collect(),
+        )),
+        Grouping::Polygon => Ok((
+            patches.iter().map(|p| p.polygon).collect(),
+            scene
+                .polygons()
+                .iter()
+                .map(|p| p.name().to_string())
+                .collect(),
+        )),
+        Grouping::Group => {
+            let mut index: HashMap<&str, u32> = HashMap::new();
+            let mut names = Vec::new();
+            let mut of_polygon = Vec::with_capacity(scene.polygons().len());
+            for (k, poly) in scene.polygons().iter().enumerate() {
+                let Some(g) = scene.group(k) else {
+                    return Err(Error::Parse {
+                        what: "grouping",
+                        input: "group".into(),
+                        reason: format!(
+                            "polygon {k} ({:?}) belongs to no group: give every polygon a \"group\" (or use --by polygon)",
+                            poly.name()
+                        ),
+                    });
+                };
+                let id = *index.entry(g).or_insert_with(|| {
+                    names.push(g.to_string());
+                    names.len() as u32 - 1
+                });
+                of_polygon.push(id);
+            }
+            Ok((
+                patches
+                    .iter()
+                    .map(|p| of_polygon[p.polygon as usize])
+                    .collect(),
+                names,
+            ))
+        }
+    }
+}
+
+/// Sums of `A_i F_ij` into surface rows, taken row by row in patch order (so the sums,
+/// and their bits, do not depend on the thread count).
+struct Gather<'a> {
+    scene: &'a Scene,
+    by: Grouping,
+    surface: &'a [u32],
+    rows: Vec<HashMap<u32, f64>>,
+    patch_rows: Vec<Vec<(u32, f64)>>,
+    escaped: Vec<f64>,
+    back: Vec<f64>,
+}
+
+impl Gather<'_> {
+    fn take(&mut self, row: &Row) {
+        let s = self.surface[row.patch as usize] as usize;
+        if self.by == Grouping::Patch {
+            self.patch_rows[s] = row.entries.iter().map(|&(j, f)| (j, f)).collect();
+            self.escaped[s] = row.escaped;
+            self.back[s] = row.back;
+            return;
+        }
+        let a = self.scene.patches()[row.patch as usize].area;
+        let acc = &mut self.rows[s];
+        for &(j, f) in &row.entries {
+            *acc.entry(self.surface[j as usize]).or_insert(0.0) += a * f;
+        }
+        self.escaped[s] += a * row.escaped;
+        self.back[s] += a * row.back;
+    }
+}
+
+/// The view factors of `scene` at hemisphere `hemi` by `opts`; `progress(n)` gets the
+/// patches done so far. Rows are made in chunks of whole polygons, in parallel, and
+/// gathered in patch order: the same bits whatever the thread count.
+pub fn view_factors(
+    scene: &Scene,
+    hemi: &Hemisphere,
+    opts: &ViewFactorOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<ViewFactors, Error> {
+    let (surface, names) = surfaces(scene, opts.by)?;
+    let n = names.len();
+    let mut area = vec![0.0; n];
+    for (p, patch) in scene.patches().iter().enumerate() {
+        area[surface[p] as usize] += patch.area;
+    }
+    let mut gather = Gather {
+        scene,
+        by: opts.by,
+        surface: &surface,
+        rows: if opts.by == Grouping::Patch {
+            Vec::new()
+        } else {
+            vec![HashMap::new(); n]
+        },
+        patch_rows: if opts.by == Grouping::Patch {
+            vec![Vec::new(); n]
+        } else {
+            Vec::new()
+        },
+        escaped: vec![0.0; n],
+        back: vec![0.0; n],
+    };
+    struct Job<'a, 'g> {
+        scene: &'a Scene,
+        hemi: &'a Hemisphere,
+        origins: u32,
+        progress: &'a (dyn Fn(usize) + Sync),
+        gather: &'g mut Gather<'a>,
+    }
+    impl CasterJob for Job<'_, '_> {
+        type Out = ();
+        fn run<C: Caster>(self, caster: &C) -> Result<(), Error> {
+            let chunks = stream_chunks(self.scene);
+            let gather = self.gather;
+            for_each_chunk(
+                &chunks,
+                |r| {
+                    let (patches, progress) = chunk_patches(r, self.progress);
+                    let rows = compute_area_rows(
+                        self.scene,
+                        caster,
+                        self.hemi,
+                        &patches,
+                        self.origins,
+                        &progress,
+                    )?;
+                    check_rows(&rows)?;
+                    Ok(rows)
+                },
+                &mut |rows: Vec<Row>| {
+                    rows.iter().for_each(|r| gather.take(r));
+                    Ok(())
+                },
+            )
+        }
+    }
+    rows_with_caster(
+        scene,
+        opts.caster,
+        Job {
+            scene,
+            hemi,
+            origins: opts.origins,
+            progress,
+            gather: &mut gather,
+        },
+    )?;
+    let rows: Vec<Vec<(u32, f64)>> = if opts.by == Grouping::Patch {
+        std::mem::take(&mut gather.patch_rows)
+    } else {
+        gather
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(s, acc)| {
+                let mut row: Vec<(u32, f64)> =
+                    acc.iter().map(|(&j, &v)| (j, v / area[s])).collect();
+                row.sort_unstable_by_key(|e| e.0);
+                row
+            })
+            .collect()
+    };
+    let (mut escaped, mut back) = (gather.escaped, gather.back);
+    if opts.by != Grouping::Patch {
+        for s in 0..n {
+            escaped[s] /= area[s];
+            back[s] /= area[s];
+        }
+    }
+    let raw = SurfaceMatrix { area, rows };
+    let (matrix, report) = raw.enforce(opts.enclosure)?;
+    Ok(ViewFactors {
+        by: opts.by,
+        origins: opts.origins,
+        enclosure: opts.enclosure,
+        names,
+        matrix,
+        escaped,
+        back,
+        report,
+    })
+}
+
+/// The formats [`write_view_factors`] writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MatrixFormat {
+    /// Our JSON: surfaces (name, area, row sum, escaped, back) and sparse rows.
+    Json,
+    /// A dense table: the first row and column the surfaces' names.
+    Csv,
+    /// Matrix Market coordinate, real, general (1-based; `scipy.io.mmread` reads it).
+    Mtx,
+}
+
+impl MatrixFormat {
+    pub const ALL: [MatrixFormat; 3] = [MatrixFormat::Json, MatrixFormat::Csv, MatrixFormat::Mtx];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            MatrixFormat::Json => "json",
+            MatrixFormat::Csv => "csv",
+            MatrixFormat::Mtx => "mtx",
+        }
+    }
+}
+
+/// The largest matrix written as CSV (a dense table of n² numbers).
+pub const MAX_CSV_SURFACES: usize = 10_000;
+
+/// Run facts a view-factor file records.
+#[derive(Clone, Debug)]
+pub struct ViewFactorRun {
+    pub scene: String,
+    pub scene_hash: String,
+    pub resolution: (u32, u32),
+}
+
+/// Writes `vf` as `format` to `w`. Every value is written in its shortest form that
+/// reads back to the same f64, so the formats agree to the bit.
+pub fn write_view_factors(
+    w: &mut dyn Write,
+    vf: &ViewFactors,
+    run: &ViewFactorRun,
+    format: MatrixFormat,
+) -> std::io::Result<()> {
+    match format {
+        MatrixFormat::Json => write_json(w, vf, run),
+        MatrixFormat::Csv => write_csv(w, vf),
+        MatrixFormat::Mtx => write_mtx(w, vf, run),
+    }
+}
+
+/// Refuses what a format cannot hold, before any work: CSV beyond
+/// [`MAX_CSV_SURFACES`] surfaces.
+pub fn check_format(format: MatrixFormat, n_surfaces: usize) -> Result<(), Error> {
+    if format == MatrixFormat::Csv && n_surfaces > MAX_CSV_SURFACES {
+        return Err(Error::Parse {
+            what: "format",
+            input: "csv".into(),
+            reason: format!(
+                "a CSV table of {n_surfaces} surfaces would hold {n_surfaces}² numbers (the limit is {MAX_CSV_SURFACES} surfaces): use --format mtx or json"
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// The number of surfaces `by` makes of `scene` (for [`check_format`]), or the error
+/// [`view_factors`] would give.
+pub fn count_surfaces(scene: &Scene, by: Grouping) -> Result<usize, Error> {
+    surfaces(scene, by).map(|(_, names)| names.len())
+}
+
+fn json_string(s: &str) -> String {
+    serde_json::to_string(s).expect("a string serialises")
+}
+
+fn write_json(w: &mut dyn Write, vf: &ViewFactors, run: &ViewFactorRun) -> std::io::Result<()> {
+    let m = &vf.matrix;
+    let r = &vf.report;
+    let q = |e: &rad_solver::ErrorQuantiles| {
+        format!(
+            "{{\"count\": {}, \"median\": {:e}, \"p90\": {:e}, \"p99\": {:e}, \"max\": {:e}}}",
+            e.count, e.median, e.p90, e.p99, e.max
+        )
+    };
+    let errors = |e: &rad_solver::EnclosureErrors| {
+        format!(
+            "{{\"row_sum\": {}, \"reciprocity\": {}}}",
+            q(&e.row_sum),
+            q(&e.reciprocity)
+        )
+    };
+    writeln!(w, "{{")?;
+    writeln!(w, "  \"scene\": {},", json_string(&run.scene))?;
+    writeln!(w, "  \"scene_hash\": {},", json_string(&run.scene_hash))?;
+    writeln!(
+        w,
+        "  \"resolution\": [{}, {}],",
+        run.resolution.0, run.resolution.1
+    )?;
+    writeln!(w, "  \"by\": \"{}\",", vf.by.name())?;
+    writeln!(w, "  \"origins\": {},", vf.origins)?;
+    writeln!(w, "  \"enclosure\": \"{}\",", vf.enclosure.name())?;
+    writeln!(
+        w,
+        "  \"report\": {{\"raw\": {}, \"fixed\": {}, \"max_change\": {:e}, \"products\": {}}},",
+        errors(&r.raw),
+        errors(&r.fixed),
+        r.max_change,
+        r.products
+    )?;
+    writeln!(w, "  \"surfaces\": [")?;
+    for i in 0..m.n() {
+        let row: Vec<String> = m.rows[i]
+            .iter()
+            .map(|&(j, f)| format!("[{j}, {f:?}]"))
+            .collect();
+        writeln!(
+            w,
+            "    {{\"id\": {i}, \"name\": {}, \"area\": {:?}, \"row_sum\": {:?}, \"escaped\": {:?}, \"back\": {:?}, \"factors\": [{}]}}{}",
+            json_string(&vf.names[i]),
+            m.area[i],
+            m.row_sum(i),
+            vf.escaped[i],
+            vf.back[i],
+            row.join(", "),
+            if i + 1 < m.n() { "," } else { "" }
+        )?;
+    }
+    writeln!(w, "  ]")?;
+    writeln!(w, "}}")
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+fn write_csv(w: &mut dyn Write, vf: &ViewFactors) -> std::io::Result<()> {
+    let m = &vf.matrix;
+    let header: Vec<String> = vf.names.iter().map(|n| csv_field(n)).collect();
+    writeln!(w, ",{}", header.join(","))?;
+    let mut dense = vec![0.0f64; m.n()];
+    for i in 0..m.n() {
+        dense.iter_mut().for_each(|v| *v = 0.0);
+        for &(j, f) in &m.rows[i] {
+            dense[j as usize] = f;
+        }
+        let cells: Vec<String> = dense.iter().map(|f| format!("{f:?}")).collect();
+        writeln!(w, "{},{}", csv_field(&vf.names[i]), cells.join(","))?;
+    }
+    Ok(())
+}
+
+fn write_mtx(w: &mut dyn Write, vf: &ViewFactors, run: &ViewFactorRun) -> std::io::Result<()> {
+    let m = &vf.matrix;
+    writeln!(w, "%%MatrixMarket matrix coordinate real general")?;
+    writeln!(
+        w,
+        "% coherad view factors F_IJ (row I sees column J) of {} by {}, {} origins a patch side, {}x{} hemisphere, enclosure {}",
+        run.scene, vf.by.name(), vf.origins, run.resolution.0, run.resolution.1, vf.enclosure.name()
+    )?;
+    writeln!(w, "% scene_hash {}", run.scene_hash)?;
+    for (i, name) in vf.names.iter().enumerate() {
+        writeln!(
+            w,
+            "% surface {} area {:?} name {}",
+            i + 1,
+            m.area[i],
+            json_string(name)
+        )?;
+    }
+    let nnz: usize = m.rows.iter().map(Vec::len).sum();
+    writeln!(w, "{} {} {}", m.n(), m.n(), nnz)?;
+    for (i, row) in m.rows.iter().enumerate() {
+        for &(j, f) in row {
+            writeln!(w, "{} {} {:?}", i + 1, j + 1, f)?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,435 @@
+//! Surface-to-surface view factors against closed forms (Howell's catalogue) at the
+//! default settings and with more origins a patch; the enclosure rules; the formats.
+
+use glam::Vec3;
+use rad_core::Rgb;
+use rad_geometry::{Material, PatchGrid, PolygonDesc, Scene, SceneDesc};
+use rad_pipeline::viewfactors::{
+    view_factors, write_view_factors, Grouping, MatrixFormat, ViewFactorOptions, ViewFactorRun,
+    ViewFactors, DEFAULT_ORIGINS,
+};
+use rad_pipeline::{Enclosure, Hemisphere, HemisphereConfig};
+use rad_repro::closed_form::{
+    coaxial_discs, obstructed_parallel_squares, parallel_rectangles, perpendicular_rectangles,
+};
+
+fn white() -> Vec<Material> {
+    vec![Material {
+        name: "white".into(),
+        reflectance: Rgb([0.5; 3]),
+        emission: Rgb::BLACK,
+    }]
+}
+
+fn poly(name: &str, vertices: Vec<Vec3>, grid: PatchGrid, group: Option<&str>) -> PolygonDesc {
+    PolygonDesc {
+        name: name.into(),
+        vertices,
+        material: 0,
+        grid,
+        group: group.map(str::to_string),
+    }
+}
+
+fn square(z: f32, up: bool) -> Vec<Vec3> {
+    let mut v = vec![
+        Vec3::new(0.0, 0.0, z),
+        Vec3::new(1.0, 0.0, z),
+        Vec3::new(1.0, 1.0, z),
+        Vec3::new(0.0, 1.0, z),
+    ];
+    if !up {
+        v.reverse();
+    }
+    v
+}
+
+fn scene(polygons: Vec<PolygonDesc>) -> Scene {
+    Scene::new(SceneDesc {
+        materials: white(),
+        polygons,
+        camera: None,
+    })
+    .unwrap()
+}
+
+const GRID: PatchGrid = PatchGrid::Cells { nu: 10, nv: 10 };
+
+fn parallel() -> Scene {
+    scene(vec![
+        poly("bottom", square(0.0, true), GRID, None),
+        poly("top", square(1.0, false), GRID, None),
+    ])
+}
+
+fn perpendicular() -> Scene {
+    let wall = vec![Vec3::ZERO, Vec3::Y, Vec3::new(0.0, 1.0, 1.0), Vec3::Z];
+    scene(vec![
+        poly("floor", square(0.0, true), GRID, None),
+        poly("wall", wall, GRID, None),
+    ])
+}
+
+fn discs(grid: PatchGrid) -> Scene {
+    let disc = |z: f32, up: bool| {
+        let mut v: Vec<Vec3> = (0..96)
+            .map(|k| {
+                let a = std::f32::consts::TAU * k as f32 / 96.0;
+                Vec3::new(a.cos(), a.sin(), z)
+            })
+            .collect();
+        if !up {
+            v.reverse();
+        }
+        v
+    };
+    scene(vec![
+        poly("a", disc(0.0, true), grid, None),
+        poly("b", disc(1.0, false), grid, None),
+    ])
+}
+
+fn obstructed() -> Scene {
+    let mut o = square(0.5, false);
+    o.iter_mut().for_each(|p| p.x += 0.5);
+    scene(vec![
+        poly("bottom", square(0.0, true), GRID, None),
+        poly("top", square(1.0, false), GRID, None),
+        poly("obstruction", o, GRID, None),
+    ])
+}
+
+fn hemi() -> Hemisphere {
+    Hemisphere::new(HemisphereConfig::exact(180, 720)).unwrap()
+}
+
+fn run(scene: &Scene, origins: u32, enclosure: Enclosure, by: Grouping) -> ViewFactors {
+    let opts = ViewFactorOptions {
+        by,
+        origins,
+        enclosure,
+        ..ViewFactorOptions::for_scene(scene)
+    };
+    view_factors(scene, &hemi(), &opts, &|_| {}).unwrap()
+}
+
+/// The 96-gon's own F against the disc's: a regular 96-gon inscribed in the unit
+/// circle has 0.99929 of its area; discs of that area (radius 0.99964) give 0.38184,
+/// 1.2e-4 below the unit discs' 0.38197. Half way between bounds the polygon's value.
+fn polygon_disc_reference() -> (f64, f64) {
+    let r_eq = (96.0 * (std::f64::consts::TAU / 96.0).sin() / (2.0 * std::f64::consts::PI)).sqrt();
+    (coaxial_discs(r_eq, r_eq, 1.0), coaxial_discs(1.0, 1.0, 1.0))
+}
+
+#[test]
+fn closed_forms_within_1e3_at_the_defaults_and_closer_with_more_origins() {
+    let (disc_lo, disc_hi) = polygon_disc_reference();
+    let cases: Vec<(&str, Scene, usize, usize, f64)> = vec![
+        (
+            "parallel squares (C-11)",
+            parallel(),
+            0,
+            1,
+            parallel_rectangles(1.0, 1.0),
+        ),
+        (
+            "perpendicular squares (C-14)",
+            perpendicular(),
+            0,
+            1,
+            perpendicular_rectangles(1.0, 1.0),
+        ),
+        (
+            "coaxial discs (C-41), patches",
+            discs(GRID),
+            0,
+            1,
+            0.5 * (disc_lo + disc_hi),
+        ),
+        (
+            "coaxial discs (C-41), patch_size",
+            discs(PatchGrid::Size(0.2)),
+            0,
+            1,
+            0.5 * (disc_lo + disc_hi),
+        ),
+        (
+            "obstructed parallel squares",
+            obstructed(),
+            0,
+            1,
+            obstructed_parallel_squares(0.5),
+        ),
+    ];
+    for (name, scene, i, j, want) in &cases {
+        let slack = if name.contains("discs") {
+            0.5 * (disc_hi - disc_lo)
+        } else {
+            0.0
+        };
+        let mut errors = Vec::new();
+        for origins in [1, DEFAULT_ORIGINS, 4] {
+            let vf = run(scene, origins, Enclosure::Raw, Grouping::Polygon);
+            let got = vf.matrix.get(*i, *j);
+            let err = ((got - want).abs() - slack).max(0.0);
+            errors.push((origins, got, err));
+        }
+        let at_default = errors.iter().find(|e| e.0 == DEFAULT_ORIGINS).unwrap();
+        assert!(at_default.2 < 1e-3, "{name}: {errors:?} against {want}");
+        // More origins, smaller error (the point-to-area error falls; what is left is
+        // the hemisphere's).
+        let (one, four) = (errors[0].2, errors[2].2);
+        assert!(four <= one, "{name}: {errors:?} against {want}");
+    }
+}
+
+#[test]
+fn the_unit_cubes_face_factors() {
+    let scene = Scene::new(rad_geometry::scenes::cube(10)).unwrap();
+    let vf = run(&scene, DEFAULT_ORIGINS, Enclosure::Raw, Grouping::Polygon);
+    let (par, perp) = (
+        parallel_rectangles(1.0, 1.0),
+        perpendicular_rectangles(1.0, 1.0),
+    );
+    let normal = |k: usize| scene.polygons()[k].normal();
+    for i in 0..6 {
+        for j in 0..6 {
+            let f = vf.matrix.get(i, j);
+            let want = match normal(i).dot(normal(j)) {
+                d if d > 0.5 => 0.0,
+                d if d < -0.5 => par,
+                _ => perp,
+            };
+            assert!(
+                (f - want).abs() < 1e-3,
+                "F_{i}{j} = {f}, closed form {want}"
+            );
+        }
+        assert!((vf.matrix.row_sum(i) - 1.0).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn closed_enclosures_are_exactly_reciprocal_and_closed() {
+    // The cube by polygon and by patch (600 surfaces), and groups of faces.
+    let desc = rad_geometry::scenes::cube(10);
+    let mut grouped = desc.clone();
+    for (k, p) in grouped.polygons.iter_mut().enumerate() {
+        p.group = Some(if k < 3 { "first" } else { "second" }.into());
+    }
+    let scenes = [Scene::new(desc).unwrap(), Scene::new(grouped).unwrap()];
+    for (scene, by) in [
+        (&scenes[0], Grouping::Polygon),
+        (&scenes[0], Grouping::Patch),
+        (&scenes[1], Grouping::Group),
+    ] {
+        let raw = run(scene, 1, Enclosure::Raw, by);
+        if by == Grouping::Patch {
+            // Point-to-area rows: reciprocal only to their discretisation error (by
+            // polygon the cube's symmetry makes them reciprocal already).
+            assert!(
+                raw.report.raw.reciprocity.max > 1e-4,
+                "{:?}",
+                raw.report.raw
+            );
+        }
+        for rule in [Enclosure::Reciprocal, Enclosure::Closed] {
+            let vf = run(scene, 1, rule, by);
+            let m = &vf.matrix;
+            for i in 0..m.n() {
+                if rule == Enclosure::Closed {
+                    assert!(
+                        (m.row_sum(i) - 1.0).abs() < 1e-9,
+                        "{by:?} row {i}: {}",
+                        m.row_sum(i)
+                    );
+                } else {
+                    let raw_sum = raw.matrix.row_sum(i);
+                    assert!((m.row_sum(i) - raw_sum).abs() < 1e-9 * raw_sum.max(1e-300));
+                }
+                for &(j, f) in &m.rows[i] {
+                    let (a, b) = (m.area[i] * f, m.area[j as usize] * m.get(j as usize, i));
+                    assert!(
+                        (a - b).abs() <= 1e-9 * a.max(b),
+                        "{by:?} ({i}, {j}): {a} vs {b}"
+                    );
+                }
+            }
+            assert!(vf.report.fixed.reciprocity.max <= 1e-9);
+            assert!(vf.report.max_change > 0.0 && vf.report.max_change < 1e-2);
+        }
+    }
+    // Groups: the faces of one group see each other (F_II > 0) and the rows still add up.
+    let vf = run(&scenes[1], 1, Enclosure::Raw, Grouping::Group);
+    assert_eq!(vf.names, ["first", "second"]);
+    assert!(vf.matrix.get(0, 0) > 0.1);
+}
+
+#[test]
+fn closed_refuses_an_open_scene_naming_the_rows_that_leak() {
+    let opts = ViewFactorOptions {
+        enclosure: Enclosure::Closed,
+        origins: 1,
+        ..ViewFactorOptions::for_scene(&parallel())
+    };
+    let err = view_factors(&parallel(), &hemi(), &opts, &|_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("2 rows leak") && err.contains("(0, 0.2"),
+        "{err}"
+    );
+}
+
+#[test]
+fn by_group_without_a_group_is_an_error_naming_the_polygon() {
+    let s = scene(vec![
+        poly("bottom", square(0.0, true), GRID, Some("floor")),
+        poly("top", square(1.0, false), GRID, None),
+    ]);
+    let opts = ViewFactorOptions {
+        by: Grouping::Group,
+        ..ViewFactorOptions::for_scene(&s)
+    };
+    let err = view_factors(&s, &hemi(), &opts, &|_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("polygon 1 (\"top\") belongs to no group"),
+        "{err}"
+    );
+    let opts = ViewFactorOptions {
+        origins: 0,
+        ..ViewFactorOptions::for_scene(&s)
+    };
+    let err = view_factors(&s, &hemi(), &opts, &|_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("0 origins"), "{err}");
+}
+
+#[test]
+fn one_origin_is_the_hemisphere_rows_and_threads_change_nothing() {
+    let scene = Scene::new(rad_geometry::scenes::cube(10)).unwrap();
+    let vf = run(&scene, 1, Enclosure::Raw, Grouping::Patch);
+    let rows = rad_pipeline::rows(
+        &scene,
+        &hemi(),
+        rad_pipeline::RowMethod::Exact {
+            caster: rad_pipeline::CasterKind::Scan,
+        },
+        &(0..scene.patches().len() as u32).collect::<Vec<_>>(),
+        &|_| {},
+    )
+    .unwrap();
+    for (i, r) in rows.rows.iter().enumerate() {
+        let mine: Vec<(u32, f64)> = vf.matrix.rows[i].clone();
+        assert_eq!(mine, r.entries, "row {i}");
+    }
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    for by in [Grouping::Polygon, Grouping::Patch] {
+        let a = run(&scene, 2, Enclosure::Closed, by);
+        let b = one.install(|| run(&scene, 2, Enclosure::Closed, by));
+        assert_eq!(a.matrix, b.matrix, "{by:?}");
+    }
+}
+
+/// The Matrix Market file of a run, read back by a small reader of the format.
+fn read_mtx(text: &str) -> (usize, Vec<(usize, usize, f64)>) {
+    let mut lines = text.lines().filter(|l| !l.starts_with('%'));
+    let size: Vec<usize> = lines
+        .next()
+        .unwrap()
+        .split_whitespace()
+        .map(|t| t.parse().unwrap())
+        .collect();
+    let entries: Vec<(usize, usize, f64)> = lines
+        .map(|l| {
+            let t: Vec<&str> = l.split_whitespace().collect();
+            (
+                t[0].parse().unwrap(),
+                t[1].parse().unwrap(),
+                t[2].parse().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(size[2], entries.len());
+    (size[0], entries)
+}
+
+#[test]
+fn json_csv_and_matrix_market_agree_to_the_bit() {
+    let scene = Scene::new(rad_geometry::scenes::cube(10)).unwrap();
+    let vf = run(
+        &scene,
+        DEFAULT_ORIGINS,
+        Enclosure::Closed,
+        Grouping::Polygon,
+    );
+    let info = ViewFactorRun {
+        scene: "cube".into(),
+        scene_hash: "0".into(),
+        resolution: (180, 720),
+    };
+    let write = |format| {
+        let mut out = Vec::new();
+        write_view_factors(&mut out, &vf, &info, format).unwrap();
+        String::from_utf8(out).unwrap()
+    };
+    assert!(text_starts(
+        &write(MatrixFormat::Mtx),
+        "%%MatrixMarket matrix coordinate real general"
+    ));
+    let (n, entries) = read_mtx(&write(MatrixFormat::Mtx));
+    assert_eq!(n, 6);
+    for (i, j, f) in &entries {
+        assert_eq!(*f, vf.matrix.get(i - 1, j - 1));
+    }
+    assert_eq!(
+        entries.len(),
+        vf.matrix.rows.iter().map(Vec::len).sum::<usize>()
+    );
+    // JSON read as text, parsed by Rust's exact float parser (serde_json's default
+    // parser may be an ulp off; Python's json and numpy read these numbers exactly).
+    let json = write(MatrixFormat::Json);
+    let parsed: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let csv = write(MatrixFormat::Csv);
+    let mut csv_lines = csv.lines();
+    let header: Vec<&str> = csv_lines.next().unwrap().split(',').collect();
+    assert_eq!(
+        header[1..],
+        vf.names.iter().map(String::as_str).collect::<Vec<_>>()[..]
+    );
+    for (i, line) in csv_lines.enumerate() {
+        let cells: Vec<&str> = line.split(',').collect();
+        assert_eq!(cells[0], vf.names[i]);
+        assert_eq!(parsed["surfaces"][i]["name"], vf.names[i].as_str());
+        let json_line = json
+            .lines()
+            .find(|l| l.trim_start().starts_with(&format!("{{\"id\": {i},")))
+            .unwrap();
+        let factors = &json_line[json_line.find("\"factors\": [").unwrap() + 12..];
+        let pairs: Vec<(usize, f64)> = factors
+            .trim_end_matches(['}', ',', ']'])
+            .split("], [")
+            .map(|p| {
+                let p = p.trim_matches(['[', ']']);
+                let (j, v) = p.split_once(", ").unwrap();
+                (j.parse().unwrap(), v.parse().unwrap())
+            })
+            .collect();
+        for j in 0..6 {
+            let from_csv: f64 = cells[j + 1].parse().unwrap();
+            let from_json = pairs.iter().find(|e| e.0 == j).map_or(0.0, |e| e.1);
+            assert_eq!(from_csv, vf.matrix.get(i, j));
+            assert_eq!(from_json, from_csv, "({i}, {j})");
+        }
+    }
+}
+
+fn text_starts(text: &str, prefix: &str) -> bool {
+    text.starts_with(prefix)
+}

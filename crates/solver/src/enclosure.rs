@@ -1,0 +1,273 @@
+//! Enclosure rules on a surface-to-surface view-factor matrix (f64, any size): raw
+//! rows, reciprocity enforced keeping each row's sum, or reciprocity with unit row sums
+//! for a closed enclosure (what View3D's `encl=1` and EnergyPlus's view-factor fixing
+//! ask for), with the largest change each made and the distribution of the raw errors.
+
+use crate::matrix::balance;
+use crate::Error;
+
+/// How a view-factor matrix is made to obey the enclosure rules.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Enclosure {
+    /// As computed.
+    Raw,
+    /// `A_I F_IJ = A_J F_JI` exactly, each row keeping its sum: F' = X G X / A with G
+    /// the symmetric part of `A_I F_IJ` and X diagonal (the solver's reciprocal scaling).
+    Reciprocal,
+    /// Reciprocity and every row summing to 1: the same scaling with unit targets. Only
+    /// for a closed scene: a row whose raw sum is below `1 − LEAK_TOLERANCE` leaks.
+    Closed,
+}
+
+impl Enclosure {
+    pub const ALL: [Enclosure; 3] = [Enclosure::Raw, Enclosure::Reciprocal, Enclosure::Closed];
+
+    /// Its stable name: `raw`, `reciprocal` or `closed`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Enclosure::Raw => "raw",
+            Enclosure::Reciprocal => "reciprocal",
+            Enclosure::Closed => "closed",
+        }
+    }
+}
+
+/// A row of a closed enclosure sums to 1 up to the hemisphere's rounding; one that
+/// misses more than this (rays escaping, or meeting the backs of polygons) leaks.
+pub const LEAK_TOLERANCE: f64 = 1e-3;
+
+/// Relative tolerance of the scaling's row sums (reached in a few Newton steps).
+const SCALING_TOLERANCE: f64 = 1e-13;
+const SCALING_MAX_PRODUCTS: usize = 5000;
+
+/// A surface-to-surface matrix: `rows[I]` holds `(J, F_IJ)` sorted by J, each surface
+/// with its area.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceMatrix {
+    pub area: Vec<f64>,
+    pub rows: Vec<Vec<(u32, f64)>>,
+}
+
+/// Quantiles of an error over rows or pairs.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ErrorQuantiles {
+    pub count: usize,
+    pub median: f64,
+    pub p90: f64,
+    pub p99: f64,
+    pub max: f64,
+}
+
+impl ErrorQuantiles {
+    /// The quantiles of `values` (nearest rank).
+    pub fn of(mut values: Vec<f64>) -> ErrorQuantiles {
+        if values.is_empty() {
+            return ErrorQuantiles::default();
+        }
+        values.sort_by(f64::total_cmp);
+        let q = |f: f64| values[((values.len() - 1) as f64 * f).round() as usize];
+        ErrorQuantiles {
+            count: values.len(),
+            median: q(0.5),
+            p90: q(0.9),
+            p99: q(0.99),
+            max: values[values.len() - 1],
+        }
+    }
+}
+
+/// How far a matrix is from the enclosure rules: |1 − Σ_J F_IJ| per row, and
+/// |A_I F_IJ − A_J F_JI| / max(A_I F_IJ, A_J F_JI) per pair that either side sees.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EnclosureErrors {
+    pub row_sum: ErrorQuantiles,
+    pub reciprocity: ErrorQuantiles,
+}
+
+/// What [`SurfaceMatrix::enforce`] did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EnclosureReport {
+    /// The errors of the matrix as computed...
+    pub raw: EnclosureErrors,
+    /// ...and as returned.
+    pub fixed: EnclosureErrors,
+    /// The largest |F'_IJ − F_IJ| the rule made.
+    pub max_change: f64,
+    /// Products by the symmetric part the scaling took (0 for raw).
+    pub products: usize,
+}
+
+impl SurfaceMatrix {
+    pub fn n(&self) -> usize {
+        self.rows.len()
+    }
+
+    pub fn row_sum(&self, i: usize) -> f64 {
+        self.rows[i].iter().map(|e| e.1).sum()
+    }
+
+    /// F_IJ, 0 where I does not see J.
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        let row = &self.rows[i];
+        row.binary_search_by_key(&(j as u32), |e| e.0)
+            .map_or(0.0, |k| row[k].1)
+    }
+
+    /// The distribution of the row-sum and reciprocity errors.
+    pub fn errors(&self) -> EnclosureErrors {
+        let row_sum = (0..self.n())
+            .map(|i| (1.0 - self.row_sum(i)).abs())
+            .collect();
+        let mut reciprocity = Vec::new();
+        for (i, row) in self.rows.iter().enumerate() {
+            for &(j, f) in row {
+                let j = j as usize;
+                // Each pair once: from the lower index, or from the upper when the lower
+                // does not see it.
+                if j > i || (j < i && self.get(j, i) == 0.0) {
+                    let (a, b) = (self.area[i] * f, self.area[j] * self.get(j, i));
+                    reciprocity.push((a - b).abs() / a.max(b));
+                }
+            }
+        }
+        EnclosureErrors {
+            row_sum: ErrorQuantiles::of(row_sum),
+            reciprocity: ErrorQuantiles::of(reciprocity),
+        }
+    }
+
+    /// Checks the matrix: one row a surface, columns in range and increasing, values
+    /// finite and ≥ 0, areas finite and > 0.
+    fn check(&self) -> Result<(), Error> {
+        let n = self.n();
+        crate::matrix::check_areas(&self.area, n)?;
+        for (i, row) in self.rows.iter().enumerate() {
+            let mut last = None;
+            for &(j, f) in row {
+                if j as usize >= n || last.is_some_and(|l| l >= j) {
+                    return Err(Error::EntryOutOfRange {
+                        row: i as u32,
+                        column: j,
+                        n_patches: n,
+                    });
+                }
+                if !(f.is_finite() && f >= 0.0) {
+                    return Err(Error::BadValue {
+                        row: i as u32,
+                        column: j,
+                        value: f,
+                    });
+                }
+                last = Some(j);
+            }
+        }
+        Ok(())
+    }
+
+    /// The matrix under `rule`, with what it changed. `Closed` on rows that leak (raw
+    /// sum below 1 − [`LEAK_TOLERANCE`]) is [`Error::Leaks`], naming them.
+    pub fn enforce(&self, rule: Enclosure) -> Result<(SurfaceMatrix, EnclosureReport), Error> {
+        self.check()?;
+        let raw = self.errors();
+        let n = self.n();
+        if rule == Enclosure::Raw {
+            let report = EnclosureReport {
+                raw,
+                fixed: raw,
+                max_change: 0.0,
+                products: 0,
+            };
+            return Ok((self.clone(), report));
+        }
+        let sums: Vec<f64> = (0..n).map(|i| self.row_sum(i)).collect();
+        if rule == Enclosure::Closed {
+            let leaks: Vec<(u32, f64)> = (0..n)
+                .filter(|&i| sums[i] < 1.0 - LEAK_TOLERANCE)
+                .map(|i| (i as u32, sums[i]))
+                .collect();
+            if !leaks.is_empty() {
+                return Err(Error::Leaks {
+                    count: leaks.len(),
+                    first: leaks.into_iter().take(5).collect(),
+                    tolerance: LEAK_TOLERANCE,
+                });
+            }
+        }
+        let g = self.symmetric_part();
+        let target: Vec<f64> = (0..n)
+            .map(|i| match rule {
+                Enclosure::Closed => self.area[i],
+                _ => self.area[i] * sums[i],
+            })
+            .collect();
+        let spmv = |x: &[f64]| -> Vec<f64> {
+            g.iter()
+                .map(|row| row.iter().map(|&(j, v)| v * x[j as usize]).sum())
+                .collect()
+        };
+        let (x, products, worst) =
+            balance(n, spmv, &target, SCALING_TOLERANCE, SCALING_MAX_PRODUCTS);
+        if !(worst <= 1e3 * SCALING_TOLERANCE) {
+            return Err(Error::NoReciprocalScaling {
+                iterations: products,
+            });
+        }
+        let rows: Vec<Vec<(u32, f64)>> = g
+            .iter()
+            .enumerate()
+            .map(|(i, row)| {
+                row.iter()
+                    .map(|&(j, v)| (j, x[i] * v * x[j as usize] / self.area[i]))
+                    .filter(|e| e.1 > 0.0)
+                    .collect()
+            })
+            .collect();
+        let fixed = SurfaceMatrix {
+            area: self.area.clone(),
+            rows,
+        };
+        let mut max_change: f64 = 0.0;
+        for i in 0..n {
+            for &(j, f) in &fixed.rows[i] {
+                max_change = max_change.max((f - self.get(i, j as usize)).abs());
+            }
+            for &(j, f) in &self.rows[i] {
+                max_change = max_change.max((f - fixed.get(i, j as usize)).abs());
+            }
+        }
+        let report = EnclosureReport {
+            raw,
+            fixed: fixed.errors(),
+            max_change,
+            products,
+        };
+        Ok((fixed, report))
+    }
+
+    /// G_IJ = (A_I F_IJ + A_J F_JI) / 2 on the pattern of F ∪ Fᵀ, rows sorted; the
+    /// same bits at (I, J) and (J, I).
+    fn symmetric_part(&self) -> Vec<Vec<(u32, f64)>> {
+        let n = self.n();
+        let mut g: Vec<Vec<(u32, f64)>> = vec![Vec::new(); n];
+        for (i, row) in self.rows.iter().enumerate() {
+            for &(j, f) in row {
+                let j = j as usize;
+                let back = self.get(j, i);
+                // Each pair formed once, from its lower index (or from the upper when
+                // the lower does not see it), and stored both ways.
+                if j < i && back > 0.0 {
+                    continue;
+                }
+                let v = 0.5 * (self.area[i] * f + self.area[j] * back);
+                g[i].push((j as u32, v));
+                if j != i {
+                    g[j].push((i as u32, v));
+                }
+            }
+        }
+        for row in &mut g {
+            row.sort_unstable_by_key(|e| e.0);
+        }
+        g
+    }
+}
