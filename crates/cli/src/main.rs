@@ -82,8 +82,9 @@ enum Command {
         #[arg(long, value_enum, default_value_t = EnclosureKind::Raw)]
         enclosure: EnclosureKind,
         /// json (surfaces and sparse rows), csv (a dense table, names in the first row
-        /// and column) or mtx (Matrix Market, for scipy.io.mmread). Default: from
-        /// --out's extension, else json.
+        /// and column), mtx (Matrix Market, for scipy.io.mmread) or view3d (View3D's
+        /// text output: areas, rows, emissivities). Default: from --out's extension
+        /// (.csv, .mtx), else json.
         #[arg(long, value_enum)]
         format: Option<FormatKind>,
         /// How hemispheres are made: scan, hierarchy or grid (the same factors, to the
@@ -188,6 +189,7 @@ enum FormatKind {
     Json,
     Csv,
     Mtx,
+    View3d,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -316,35 +318,8 @@ fn run(cli: &Cli) -> Result<(), String> {
             out,
         } => {
             let scene = load(scene)?;
-            let mut opts = ViewFactorOptions::for_scene(&scene.scene);
-            opts.by = match by {
-                ByKind::Patch => Grouping::Patch,
-                ByKind::Polygon => Grouping::Polygon,
-                ByKind::Group => Grouping::Group,
-            };
-            opts.origins = *origins;
-            opts.enclosure = match enclosure {
-                EnclosureKind::Raw => Enclosure::Raw,
-                EnclosureKind::Reciprocal => Enclosure::Reciprocal,
-                EnclosureKind::Closed => Enclosure::Closed,
-            };
-            if let Some(c) = caster {
-                opts.caster = *c;
-            }
-            let format = match format {
-                Some(FormatKind::Json) => MatrixFormat::Json,
-                Some(FormatKind::Csv) => MatrixFormat::Csv,
-                Some(FormatKind::Mtx) => MatrixFormat::Mtx,
-                None => match out
-                    .as_deref()
-                    .and_then(|p| p.extension())
-                    .and_then(|e| e.to_str())
-                {
-                    Some("csv") => MatrixFormat::Csv,
-                    Some("mtx") => MatrixFormat::Mtx,
-                    _ => MatrixFormat::Json,
-                },
-            };
+            let opts = viewfactor_options(&scene, *by, *origins, *enclosure, *caster);
+            let format = matrix_format(*format, out.as_deref());
             viewfactors(&scene, resolution, &opts, format, out.as_deref())
         }
         Command::Solve {
@@ -498,6 +473,51 @@ fn formfactors(
         }
         write_rows_footer(w)
     })
+}
+
+/// The view-factor options of `coherad viewfactors`' flags.
+fn viewfactor_options(
+    scene: &SceneFile,
+    by: ByKind,
+    origins: u32,
+    enclosure: EnclosureKind,
+    caster: Option<CasterKind>,
+) -> ViewFactorOptions {
+    let mut opts = ViewFactorOptions::for_scene(&scene.scene);
+    opts.by = match by {
+        ByKind::Patch => Grouping::Patch,
+        ByKind::Polygon => Grouping::Polygon,
+        ByKind::Group => Grouping::Group,
+    };
+    opts.origins = origins;
+    opts.enclosure = match enclosure {
+        EnclosureKind::Raw => Enclosure::Raw,
+        EnclosureKind::Reciprocal => Enclosure::Reciprocal,
+        EnclosureKind::Closed => Enclosure::Closed,
+    };
+    if let Some(c) = caster {
+        opts.caster = c;
+    }
+    opts
+}
+
+/// The matrix format of `--format`, else of `--out`'s extension (.csv, .mtx, any
+/// case), else JSON.
+fn matrix_format(format: Option<FormatKind>, out: Option<&Path>) -> MatrixFormat {
+    match format {
+        Some(FormatKind::Json) => MatrixFormat::Json,
+        Some(FormatKind::Csv) => MatrixFormat::Csv,
+        Some(FormatKind::Mtx) => MatrixFormat::Mtx,
+        Some(FormatKind::View3d) => MatrixFormat::View3d,
+        None => {
+            let ext = out.and_then(|p| p.extension()).and_then(|e| e.to_str());
+            match ext.map(str::to_ascii_lowercase).as_deref() {
+                Some("csv") => MatrixFormat::Csv,
+                Some("mtx") => MatrixFormat::Mtx,
+                _ => MatrixFormat::Json,
+            }
+        }
+    }
 }
 
 fn viewfactors(

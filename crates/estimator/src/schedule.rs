@@ -13,8 +13,8 @@ pub struct Window {
 
 /// The windows of every polygon, polygon by polygon.
 ///
-/// Windows start at cell (0, 0) (the polygon's vertex 0, its "top-left" corner in
-/// (u, v)) and step by 3 cells along u and v without overlapping. At a polygon's far
+/// Windows start at cell (0, 0) (the corner of the polygon's (u, v) box: its vertex 0
+/// for a parallelogram or triangle) and step by 3 cells along u and v without overlapping. At a polygon's far
 /// edges a window is cut short (1 or 2 cells wide); its exact patch is the cell nearest
 /// the cut window's centre, i.e. cell `start + (width − 1) / 2` on each axis (the first
 /// of two, the only one of one). Where that cell has no patch (a clipped polygon), the

@@ -361,7 +361,9 @@ impl Polygon {
     pub fn vertices(&self) -> &[Vec3] {
         &self.vertices
     }
-    /// Vertices in (u, v) coordinates: vertex 0 is (0, 0), vertex 1 is (1, 0), the last (0, 1).
+    /// Vertices in (u, v) coordinates (in the edge frame of a triangle or parallelogram,
+    /// vertex 0 is (0, 0), vertex 1 is (1, 0), the last (0, 1); in a bounding rectangle's
+    /// frame they lie in [0, 1]²).
     pub fn uv_vertices(&self) -> &[[f64; 2]] {
         &self.uv_vertices
     }
@@ -466,11 +468,15 @@ impl Polygon {
                     clip_convex(&square, &self.uv_vertices)
                 };
                 let (area, c) = polygon_area_centroid(&piece);
-                if area > MIN_CELL_FRACTION * cu * cv {
+                if area > MIN_CELL_FRACTION * cu * cv / f64::from(n * n) {
                     total += area;
                     out.push(((o + e_u * c[0] + e_v * c[1]).as_vec3(), area));
                 }
             }
+        }
+        if out.is_empty() && n > 1 {
+            // A sliver patch whose sub-cells all fall under the size limit: its centre.
+            return self.patch_origins(cell, 1);
         }
         for p in &mut out {
             p.1 /= total;
@@ -509,10 +515,11 @@ pub(crate) fn texture_axes(
     let e_u = pts[1] - origin;
     let e_v = pts[n - 1] - origin;
     let cross = e_u.cross(e_v).dot(normal);
+    // A valid triangle (area over 1e-12 d², checked) always has its edge frame.
+    if n == 3 {
+        return (cross > 0.0).then_some((origin, e_u, e_v, false));
+    }
     if cross > 1e-9 * diameter * diameter {
-        if n == 3 {
-            return Some((origin, e_u, e_v, false));
-        }
         if n == 4 {
             let du = e_v.cross(normal) / e_v.cross(normal).dot(e_u);
             let dv = normal.cross(e_u) / normal.cross(e_u).dot(e_v);
@@ -521,8 +528,6 @@ pub(crate) fn texture_axes(
                 return Some((origin, e_u, e_v, true));
             }
         }
-    } else if n == 3 {
-        return None;
     }
     let mut best: Option<(f64, DVec3, DVec3, [f64; 4])> = None;
     for k in 0..n {
@@ -544,7 +549,8 @@ pub(crate) fn texture_axes(
             ext = [ext[0].min(s), ext[1].max(s), ext[2].min(t), ext[3].max(t)];
         }
         let area = (ext[1] - ext[0]) * (ext[3] - ext[2]);
-        if best.is_none_or(|(best_area, ..)| area < best_area * (1.0 - 1e-9)) {
+        // Ties (within 1e-6: far past the rounding of f32 input) go to the first edge.
+        if best.is_none_or(|(best_area, ..)| area < best_area * (1.0 - 1e-6)) {
             best = Some((area, a, b, ext));
         }
     }
@@ -685,8 +691,8 @@ fn validated(
     Ok((pts, normal, diameter, area))
 }
 
-/// Where a polygon's patch texture lies: vertex 0, the edges to vertices 1 and last,
-/// the parallelogram's area and the unit normal.
+/// Where a polygon's patch texture lies: its (u, v) frame's origin and edges
+/// ([`texture_axes`]), the area of their parallelogram and the unit normal.
 struct TextureFrame {
     origin: DVec3,
     e_u: DVec3,

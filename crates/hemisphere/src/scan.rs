@@ -137,8 +137,8 @@ impl Hemisphere {
         self.scan_finish(scene, &at, &scratch.hits, buf);
     }
 
-    /// Starts scanning `patch`'s hemisphere: no hits yet, the cells' directions in its
-    /// polygon's frame.
+    /// Starts scanning the hemisphere at `from`: no hits yet, the cells' directions in
+    /// its polygon's frame.
     pub(crate) fn scan_begin(
         &self,
         scene: &Scene,
@@ -789,7 +789,8 @@ pub(crate) fn padded_corners(poly: &Polygon) -> [DVec3; 4] {
     .map(|(u, v)| origin + eu * u + ev * v)
 }
 
-/// The polygon's origin (vertex 0) moved onto its plane.
+/// The polygon's (u, v) origin (vertex 0, or its bounding rectangle's corner) moved
+/// onto its plane.
 fn padded_origin(poly: &Polygon) -> DVec3 {
     let (n, origin) = (poly.normal().as_dvec3(), poly.origin().as_dvec3());
     origin + n * (poly.plane_offset() as f64 - n.dot(origin))

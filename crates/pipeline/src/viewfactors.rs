@@ -4,6 +4,7 @@
 
 use crate::rows::{check_rows, chunk_patches, for_each_chunk, stream_chunks};
 use crate::{rows_with_caster, CasterJob, CasterKind, Error};
+use rad_core::PatchId;
 use rad_geometry::Scene;
 pub use rad_hemisphere::MAX_ORIGINS;
 use rad_hemisphere::{compute_area_rows, Caster, Hemisphere, Row};
@@ -76,6 +77,9 @@ pub struct ViewFactors {
     /// rays that met the back of a polygon (as computed, before the enclosure rule).
     pub escaped: Vec<f64>,
     pub back: Vec<f64>,
+    /// Per surface, its area-weighted emissivity, 1 − the mean of its materials'
+    /// reflectance channels (grey surfaces: what View3D's output lists).
+    pub emissivity: Vec<f64>,
     pub report: EnclosureReport,
 }
 
@@ -170,8 +174,15 @@ pub fn view_factors(
     let (surface, names) = surfaces(scene, opts.by)?;
     let n = names.len();
     let mut area = vec![0.0; n];
+    let mut emissivity = vec![0.0; n];
     for (p, patch) in scene.patches().iter().enumerate() {
-        area[surface[p] as usize] += patch.area;
+        let s = surface[p] as usize;
+        area[s] += patch.area;
+        let rho = scene.patch_material(p as PatchId).reflectance.0;
+        emissivity[s] += patch.area * (1.0 - (rho[0] + rho[1] + rho[2]) / 3.0);
+    }
+    for s in 0..n {
+        emissivity[s] /= area[s];
     }
     let mut gather = Gather {
         scene,
@@ -267,6 +278,7 @@ pub fn view_factors(
         matrix,
         escaped,
         back,
+        emissivity,
         report,
     })
 }
@@ -280,16 +292,25 @@ pub enum MatrixFormat {
     Csv,
     /// Matrix Market coordinate, real, general (1-based; `scipy.io.mmread` reads it).
     Mtx,
+    /// View3D's own text output (its format 0): a header line, the areas, one row of
+    /// factors a surface (six decimals, as View3D writes them), the emissivities.
+    View3d,
 }
 
 impl MatrixFormat {
-    pub const ALL: [MatrixFormat; 3] = [MatrixFormat::Json, MatrixFormat::Csv, MatrixFormat::Mtx];
+    pub const ALL: [MatrixFormat; 4] = [
+        MatrixFormat::Json,
+        MatrixFormat::Csv,
+        MatrixFormat::Mtx,
+        MatrixFormat::View3d,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
             MatrixFormat::Json => "json",
             MatrixFormat::Csv => "csv",
             MatrixFormat::Mtx => "mtx",
+            MatrixFormat::View3d => "view3d",
         }
     }
 }
@@ -317,18 +338,21 @@ pub fn write_view_factors(
         MatrixFormat::Json => write_json(w, vf, run),
         MatrixFormat::Csv => write_csv(w, vf),
         MatrixFormat::Mtx => write_mtx(w, vf, run),
+        MatrixFormat::View3d => write_view3d(w, vf),
     }
 }
 
 /// Refuses what a format cannot hold, before any work: CSV beyond
 /// [`MAX_CSV_SURFACES`] surfaces.
 pub fn check_format(format: MatrixFormat, n_surfaces: usize) -> Result<(), Error> {
-    if format == MatrixFormat::Csv && n_surfaces > MAX_CSV_SURFACES {
+    let dense = matches!(format, MatrixFormat::Csv | MatrixFormat::View3d);
+    if dense && n_surfaces > MAX_CSV_SURFACES {
         return Err(Error::Parse {
             what: "format",
-            input: "csv".into(),
+            input: format.name().into(),
             reason: format!(
-                "a CSV table of {n_surfaces} surfaces would hold {n_surfaces}² numbers (the limit is {MAX_CSV_SURFACES} surfaces): use --format mtx or json"
+                "a dense {} table of {n_surfaces} surfaces would hold {n_surfaces}² numbers (the limit is {MAX_CSV_SURFACES} surfaces): use --format mtx or json",
+                format.name()
             ),
         });
     }
@@ -432,7 +456,7 @@ fn write_mtx(w: &mut dyn Write, vf: &ViewFactors, run: &ViewFactorRun) -> std::i
     writeln!(
         w,
         "% coherad view factors F_IJ (row I sees column J) of {} by {}, {} origins a patch side, {}x{} hemisphere, enclosure {}",
-        run.scene, vf.by.name(), vf.origins, run.resolution.0, run.resolution.1, vf.enclosure.name()
+        json_string(&run.scene), vf.by.name(), vf.origins, run.resolution.0, run.resolution.1, vf.enclosure.name()
     )?;
     writeln!(w, "% scene_hash {}", run.scene_hash)?;
     for (i, name) in vf.names.iter().enumerate() {
@@ -452,4 +476,77 @@ fn write_mtx(w: &mut dyn Write, vf: &ViewFactors, run: &ViewFactorRun) -> std::i
         }
     }
     Ok(())
+}
+
+fn write_view3d(w: &mut dyn Write, vf: &ViewFactors) -> std::io::Result<()> {
+    let m = &vf.matrix;
+    // View3D's header: program, version, format (0: text), encl, didemit, surfaces,
+    // padded to 30 characters.
+    let encl = u8::from(vf.enclosure == Enclosure::Closed);
+    let header = format!("coherad {} 0 {encl} 0 {}", env!("CARGO_PKG_VERSION"), m.n());
+    writeln!(w, "{header:<30}")?;
+    let areas: Vec<String> = m.area.iter().map(|a| format!("{}", Float(*a))).collect();
+    writeln!(w, "{}", areas.join(" "))?;
+    let mut dense = vec![0.0f64; m.n()];
+    for row in &m.rows {
+        dense.iter_mut().for_each(|v| *v = 0.0);
+        for &(j, f) in row {
+            dense[j as usize] = f;
+        }
+        let cells: Vec<String> = dense.iter().map(|f| format!("{f:.6}")).collect();
+        writeln!(w, "{}", cells.join(" "))?;
+    }
+    let emit: Vec<String> = vf.emissivity.iter().map(|e| format!("{e:.3}")).collect();
+    writeln!(w, "{}", emit.join(" "))
+}
+
+/// An f64 as C's `%g` writes it (six significant digits, trailing zeros dropped).
+struct Float(f64);
+
+impl std::fmt::Display for Float {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let x = self.0;
+        if x == 0.0 {
+            return write!(f, "0");
+        }
+        // C's rule: the exponent after rounding to six digits picks the style.
+        let s = format!("{x:.5e}");
+        let (mant, e) = s.split_once('e').expect("an exponent");
+        let exp: i32 = e.parse().expect("an integer exponent");
+        let text = if !(-4..6).contains(&exp) {
+            let mant = mant.trim_end_matches('0').trim_end_matches('.');
+            format!("{mant}e{}{:02}", if exp < 0 { '-' } else { '+' }, exp.abs())
+        } else {
+            let decimals = (5 - exp).max(0) as usize;
+            let s = format!("{x:.decimals$}");
+            if s.contains('.') {
+                s.trim_end_matches('0').trim_end_matches('.').to_string()
+            } else {
+                s
+            }
+        };
+        write!(f, "{text}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Float;
+
+    #[test]
+    fn floats_as_c_writes_them_with_percent_g() {
+        for (x, want) in [
+            (1.0, "1"),
+            (0.01, "0.01"),
+            (2.5, "2.5"),
+            (123456.0, "123456"),
+            (999_999.7, "1e+06"),
+            (1_234_567.0, "1.23457e+06"),
+            (0.0001, "0.0001"),
+            (0.000_012_34, "1.234e-05"),
+            (0.0, "0"),
+        ] {
+            assert_eq!(Float(x).to_string(), want, "{x}");
+        }
+    }
 }

@@ -59,7 +59,8 @@ pub struct ErrorQuantiles {
 }
 
 impl ErrorQuantiles {
-    /// The quantiles of `values` (nearest rank).
+    /// The quantiles of `values` (the value at the rounded index q·(n − 1) of the sorted
+    /// values).
     pub fn of(mut values: Vec<f64>) -> ErrorQuantiles {
         if values.is_empty() {
             return ErrorQuantiles::default();
@@ -168,6 +169,12 @@ impl SurfaceMatrix {
     /// sum below 1 − [`LEAK_TOLERANCE`]) is [`Error::Leaks`], naming them.
     pub fn enforce(&self, rule: Enclosure) -> Result<(SurfaceMatrix, EnclosureReport), Error> {
         self.check()?;
+        if self.rows.iter().any(|r| r.iter().any(|e| e.1 == 0.0)) {
+            // Explicit zeros are no entries: drop them, then go on.
+            let mut clean = self.clone();
+            clean.rows.iter_mut().for_each(|r| r.retain(|e| e.1 > 0.0));
+            return clean.enforce(rule);
+        }
         let raw = self.errors();
         let n = self.n();
         if rule == Enclosure::Raw {
@@ -194,6 +201,14 @@ impl SurfaceMatrix {
             }
         }
         let g = self.symmetric_part();
+        // A surface that sees nothing but is seen: no scaling keeps its zero sum without
+        // deleting what the others see of it.
+        if let Some(i) = (0..n).find(|&i| sums[i] == 0.0 && !g[i].is_empty()) {
+            return Err(Error::SeenButBlind {
+                surface: i as u32,
+                seen_by: g[i][0].0,
+            });
+        }
         let target: Vec<f64> = (0..n)
             .map(|i| match rule {
                 Enclosure::Closed => self.area[i],
@@ -269,5 +284,61 @@ impl SurfaceMatrix {
             row.sort_unstable_by_key(|e| e.0);
         }
         g
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn two(f01: f64, f10: f64) -> SurfaceMatrix {
+        SurfaceMatrix {
+            area: vec![1.0, 2.0],
+            rows: vec![vec![(1, f01)], vec![(0, f10)]],
+        }
+    }
+
+    #[test]
+    fn rules_on_two_surfaces() {
+        // A_0 F_01 = 0.5, A_1 F_10 = 0.6: G = 0.55.
+        let m = two(0.5, 0.3);
+        let (raw, report) = m.enforce(Enclosure::Raw).unwrap();
+        assert_eq!(raw, m);
+        assert!((report.raw.reciprocity.max - 0.1 / 0.6).abs() < 1e-12);
+        // Two surfaces that see only each other keep both sums reciprocally only if
+        // A_0 s_0 = A_1 s_1: not here (0.5 against 0.6), so no scaling exists.
+        assert!(matches!(
+            m.enforce(Enclosure::Reciprocal),
+            Err(Error::NoReciprocalScaling { .. })
+        ));
+        let fits = two(0.6, 0.3);
+        let (r, rep) = fits.enforce(Enclosure::Reciprocal).unwrap();
+        assert!((r.row_sum(0) - 0.6).abs() < 1e-12 && (r.row_sum(1) - 0.3).abs() < 1e-12);
+        assert!((r.area[0] * r.get(0, 1) - r.area[1] * r.get(1, 0)).abs() < 1e-15);
+        assert!(rep.fixed.reciprocity.max < 1e-12);
+        assert!(m.enforce(Enclosure::Closed).is_err());
+    }
+
+    #[test]
+    fn explicit_zeros_are_no_entries_and_a_blind_surface_is_named() {
+        let with_zero = SurfaceMatrix {
+            area: vec![1.0, 2.0],
+            rows: vec![vec![(1, 0.6)], vec![(0, 0.3), (1, 0.0)]],
+        };
+        let (a, _) = with_zero.enforce(Enclosure::Reciprocal).unwrap();
+        let (b, _) = two(0.6, 0.3).enforce(Enclosure::Reciprocal).unwrap();
+        assert_eq!(a, b);
+        let blind = SurfaceMatrix {
+            area: vec![1.0, 1.0],
+            rows: vec![vec![(1, 0.5)], vec![]],
+        };
+        let err = blind.enforce(Enclosure::Reciprocal).unwrap_err();
+        assert_eq!(
+            err,
+            Error::SeenButBlind {
+                surface: 1,
+                seen_by: 0
+            }
+        );
     }
 }

@@ -571,7 +571,7 @@ fn view_factors_of_the_cube() {
         (vec!["--by", "group"], "belongs to no group"),
         (
             vec!["--by", "patch", "--format", "csv"],
-            "a CSV table of 14400 surfaces",
+            "a dense csv table of 14400 surfaces",
         ),
     ] {
         let bad = dir.path().join("bad.json");

@@ -430,6 +430,49 @@ fn json_csv_and_matrix_market_agree_to_the_bit() {
     }
 }
 
+#[test]
+fn view3d_output_is_view3ds_text_format() {
+    let scene = Scene::new(rad_geometry::scenes::cube(10)).unwrap();
+    let vf = run(
+        &scene,
+        DEFAULT_ORIGINS,
+        Enclosure::Closed,
+        Grouping::Polygon,
+    );
+    let info = ViewFactorRun {
+        scene: "cube".into(),
+        scene_hash: "0".into(),
+        resolution: (180, 720),
+    };
+    let mut out = Vec::new();
+    write_view_factors(&mut out, &vf, &info, MatrixFormat::View3d).unwrap();
+    let text = String::from_utf8(out).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    // Header (30 characters: program, version, format 0, encl 1, didemit 0, 6
+    // surfaces), areas, six rows, emissivities.
+    assert_eq!(lines.len(), 1 + 1 + 6 + 1);
+    assert_eq!(lines[0].len(), 30);
+    let head: Vec<&str> = lines[0].split_whitespace().collect();
+    assert_eq!(
+        (head[0], head[2], head[3], head[4], head[5]),
+        ("coherad", "0", "1", "0", "6")
+    );
+    let areas: Vec<f64> = lines[1].split(' ').map(|t| t.parse().unwrap()).collect();
+    assert_eq!(areas, [1.0; 6]);
+    for i in 0..6 {
+        let row: Vec<f64> = lines[2 + i]
+            .split(' ')
+            .map(|t| t.parse().unwrap())
+            .collect();
+        assert_eq!(row.len(), 6);
+        for (j, f) in row.iter().enumerate() {
+            assert!((f - vf.matrix.get(i, j)).abs() <= 5e-7, "({i}, {j})");
+        }
+    }
+    // Grey emissivity, 1 − the cube's reflectance of 0.7.
+    assert_eq!(lines[8], ["0.300"; 6].join(" "));
+}
+
 fn text_starts(text: &str, prefix: &str) -> bool {
     text.starts_with(prefix)
 }
