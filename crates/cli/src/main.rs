@@ -9,8 +9,8 @@ use rad_pipeline::output::{
 };
 use rad_pipeline::solve::{read_solution, solve_scene, SolveOptions};
 use rad_pipeline::viewfactors::{
-    check_format, count_surfaces, view_factors, write_view_factors, Grouping, MatrixFormat,
-    ViewFactorOptions, ViewFactorRun,
+    check_format, count_surfaces, stream_patch_matrix, view_factors, write_view_factors, Grouping,
+    MatrixFormat, ViewFactorOptions, ViewFactorRun,
 };
 use rad_pipeline::{
     parse_patch_list, parse_resolution, CasterKind, Enclosure, EstimateStats, Hemisphere,
@@ -82,9 +82,11 @@ enum Command {
         #[arg(long, value_enum, default_value_t = EnclosureKind::Raw)]
         enclosure: EnclosureKind,
         /// json (surfaces and sparse rows), csv (a dense table, names in the first row
-        /// and column), mtx (Matrix Market, for scipy.io.mmread) or view3d (View3D's
-        /// text output: areas, rows, emissivities). Default: from --out's extension
-        /// (.csv, .mtx), else json.
+        /// and column), mtx (Matrix Market, for scipy.io.mmread), view3d (View3D's
+        /// text output: areas, rows, emissivities) or bin (coherad's compact binary
+        /// triplets: see the README; with --by patch --enclosure raw, written as rows are
+        /// made, never held). Default: from --out's extension (.csv, .mtx, .bin), else
+        /// json.
         #[arg(long, value_enum)]
         format: Option<FormatKind>,
         /// How hemispheres are made: scan, hierarchy or grid (the same factors, to the
@@ -190,6 +192,7 @@ enum FormatKind {
     Csv,
     Mtx,
     View3d,
+    Bin,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -278,7 +281,7 @@ fn emit(
     fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), String> {
     match out {
-        Some(path) => write_atomic(path, fill).map_err(|e| e.to_string()),
+        Some(path) => write_atomic(path, |w| fill(w)).map_err(|e| e.to_string()),
         None => {
             let stdout = std::io::stdout();
             let mut lock = std::io::BufWriter::new(stdout.lock());
@@ -509,11 +512,13 @@ fn matrix_format(format: Option<FormatKind>, out: Option<&Path>) -> MatrixFormat
         Some(FormatKind::Csv) => MatrixFormat::Csv,
         Some(FormatKind::Mtx) => MatrixFormat::Mtx,
         Some(FormatKind::View3d) => MatrixFormat::View3d,
+        Some(FormatKind::Bin) => MatrixFormat::Bin,
         None => {
             let ext = out.and_then(|p| p.extension()).and_then(|e| e.to_str());
             match ext.map(str::to_ascii_lowercase).as_deref() {
                 Some("csv") => MatrixFormat::Csv,
                 Some("mtx") => MatrixFormat::Mtx,
+                Some("bin") => MatrixFormat::Bin,
                 _ => MatrixFormat::Json,
             }
         }
@@ -537,6 +542,9 @@ fn viewfactors(
             opts.origins
         ));
     }
+    if format == MatrixFormat::Bin && out.is_none() {
+        return Err("--format bin writes a binary file: give --out FILE.bin".into());
+    }
     let n_patches = scene.scene.patches().len();
     let per_patch = u64::from(opts.origins).pow(2);
     let rays = n_patches as u64 * per_patch * hemi.n_cells() as u64;
@@ -557,8 +565,33 @@ fn viewfactors(
         hemi.n_theta(),
         hemi.n_phi()
     ));
-    let vf = view_factors(&scene.scene, &hemi, opts, &|n| bar.set_position(n as u64))
+    let run = ViewFactorRun {
+        scene: scene.path.display().to_string(),
+        scene_hash: scene.hash_text(),
+        resolution: (hemi.n_theta() as u32, hemi.n_phi() as u32),
+    };
+    let progress = |n: usize| bar.set_position(n as u64);
+    if let (MatrixFormat::Bin, Grouping::Patch, Enclosure::Raw, Some(path)) =
+        (format, opts.by, opts.enclosure, out)
+    {
+        // Patch to patch, raw: written as the rows are made, never held.
+        let mut done = None;
+        write_atomic(path, |w| {
+            let s = stream_patch_matrix(&scene.scene, &hemi, opts, &run, w, &progress)
+                .map_err(|e| std::io::Error::other(e.to_string()))?;
+            done = Some(s);
+            Ok(())
+        })
         .map_err(|e| e.to_string())?;
+        bar.finish_and_clear();
+        let done = done.expect("written");
+        eprintln!(
+            "{} rows, {} entries written as made; {} rows lose form factor to rays leaving the scene, {} see polygons from behind",
+            done.n_patches, done.entries, done.escaping_rows, done.back_rows
+        );
+        return Ok(());
+    }
+    let vf = view_factors(&scene.scene, &hemi, opts, &progress).map_err(|e| e.to_string())?;
     bar.finish_and_clear();
     let leaking = (0..vf.names.len()).filter(|&i| vf.escaped[i] > 0.0).count();
     if leaking > 0 {
@@ -592,11 +625,6 @@ fn viewfactors(
         r.raw.reciprocity.median,
         r.max_change
     );
-    let run = ViewFactorRun {
-        scene: scene.path.display().to_string(),
-        scene_hash: scene.hash_text(),
-        resolution: (hemi.n_theta() as u32, hemi.n_phi() as u32),
-    };
     emit(out, |w| write_view_factors(w, &vf, &run, format))
 }
 

@@ -4,6 +4,7 @@
 //! back, images written. It computes and writes; it never prints.
 
 pub mod images;
+pub mod matrix_file;
 mod method;
 pub mod output;
 mod parse;

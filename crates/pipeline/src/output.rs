@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 /// as it was.
 pub fn write_atomic(
     path: &Path,
-    fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+    fill: impl FnOnce(&mut (dyn Write + Send)) -> std::io::Result<()>,
 ) -> Result<(), Error> {
     let err = |source| Error::Io {
         action: "write",

@@ -162,6 +162,136 @@ impl Gather<'_> {
     }
 }
 
+/// Every patch's row (averaged over `opts.origins`² origins), made in chunks of whole
+/// polygons in parallel through `opts.caster` and handed to `sink` in patch order.
+fn for_each_row(
+    scene: &Scene,
+    hemi: &Hemisphere,
+    opts: &ViewFactorOptions,
+    progress: &(dyn Fn(usize) + Sync),
+    sink: &mut (dyn FnMut(&Row) -> Result<(), Error> + Send),
+) -> Result<(), Error> {
+    struct Job<'a, 'g> {
+        scene: &'a Scene,
+        hemi: &'a Hemisphere,
+        origins: u32,
+        progress: &'a (dyn Fn(usize) + Sync),
+        sink: &'g mut (dyn FnMut(&Row) -> Result<(), Error> + Send),
+    }
+    impl CasterJob for Job<'_, '_> {
+        type Out = ();
+        fn run<C: Caster>(self, caster: &C) -> Result<(), Error> {
+            let chunks = stream_chunks(self.scene);
+            let sink = self.sink;
+            for_each_chunk(
+                &chunks,
+                |r| {
+                    let (patches, progress) = chunk_patches(r, self.progress);
+                    let rows = compute_area_rows(
+                        self.scene,
+                        caster,
+                        self.hemi,
+                        &patches,
+                        self.origins,
+                        &progress,
+                    )?;
+                    check_rows(&rows)?;
+                    Ok(rows)
+                },
+                &mut |rows: Vec<Row>| rows.iter().try_for_each(&mut *sink),
+            )
+        }
+    }
+    rows_with_caster(
+        scene,
+        opts.caster,
+        Job {
+            scene,
+            hemi,
+            origins: opts.origins,
+            progress,
+            sink,
+        },
+    )
+}
+
+/// What [`stream_patch_matrix`] wrote.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Streamed {
+    pub n_patches: usize,
+    pub entries: u64,
+    /// Rows that lose form factor to rays leaving the scene, or meeting backs.
+    pub escaping_rows: usize,
+    pub back_rows: usize,
+}
+
+/// Patch-to-patch factors, raw, written to `w` as a [`crate::matrix_file`] row by row
+/// as they are made, never held: what `coherad viewfactors --by patch --enclosure raw
+/// --format bin` runs, for matrices of any size. The bytes are [`write_view_factors`]'s
+/// of the same run (tested).
+pub fn stream_patch_matrix(
+    scene: &Scene,
+    hemi: &Hemisphere,
+    opts: &ViewFactorOptions,
+    run: &ViewFactorRun,
+    w: &mut (dyn Write + Send),
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Streamed, Error> {
+    let (surface, names) = surfaces(scene, Grouping::Patch)?;
+    let n = surface.len();
+    let areas: Vec<f64> = scene.patches().iter().map(|p| p.area).collect();
+    let meta = bin_metadata(run, Grouping::Patch, opts.origins, Enclosure::Raw, &names);
+    let io = |e: std::io::Error| Error::Io {
+        action: "write",
+        path: "the matrix file".into(),
+        source: e,
+    };
+    let mut out =
+        crate::matrix_file::MatrixWriter::begin(w, n as u64, &meta, &areas).map_err(io)?;
+    let mut done = Streamed {
+        n_patches: n,
+        entries: 0,
+        escaping_rows: 0,
+        back_rows: 0,
+    };
+    for_each_row(scene, hemi, opts, progress, &mut |r| {
+        done.escaping_rows += usize::from(r.escaped > 0.0);
+        done.back_rows += usize::from(r.back > 0.0);
+        out.row(&r.entries).map_err(io)
+    })?;
+    done.entries = out.finish().map_err(io)?;
+    Ok(done)
+}
+
+fn bin_metadata(
+    run: &ViewFactorRun,
+    by: Grouping,
+    origins: u32,
+    enclosure: Enclosure,
+    names: &[String],
+) -> serde_json::Value {
+    serde_json::json!({
+        "what": "view factors F_IJ: row I sees column J",
+        "scene": run.scene,
+        "scene_hash": run.scene_hash,
+        "resolution": [run.resolution.0, run.resolution.1],
+        "by": by.name(),
+        "origins": origins,
+        "enclosure": enclosure.name(),
+        "names": names,
+    })
+}
+
+fn write_bin(w: &mut dyn Write, vf: &ViewFactors, run: &ViewFactorRun) -> std::io::Result<()> {
+    let meta = bin_metadata(run, vf.by, vf.origins, vf.enclosure, &vf.names);
+    let m = &vf.matrix;
+    let mut out = crate::matrix_file::MatrixWriter::begin(w, m.n() as u64, &meta, &m.area)?;
+    for row in &m.rows {
+        out.row(row)?;
+    }
+    out.finish().map(|_| ())
+}
+
 /// The view factors of `scene` at hemisphere `hemi` by `opts`; `progress(n)` gets the
 /// patches done so far. Rows are made in chunks of whole polygons, in parallel, and
 /// gathered in patch order: the same bits whatever the thread count.
@@ -201,51 +331,10 @@ pub fn view_factors(
         escaped: vec![0.0; n],
         back: vec![0.0; n],
     };
-    struct Job<'a, 'g> {
-        scene: &'a Scene,
-        hemi: &'a Hemisphere,
-        origins: u32,
-        progress: &'a (dyn Fn(usize) + Sync),
-        gather: &'g mut Gather<'a>,
-    }
-    impl CasterJob for Job<'_, '_> {
-        type Out = ();
-        fn run<C: Caster>(self, caster: &C) -> Result<(), Error> {
-            let chunks = stream_chunks(self.scene);
-            let gather = self.gather;
-            for_each_chunk(
-                &chunks,
-                |r| {
-                    let (patches, progress) = chunk_patches(r, self.progress);
-                    let rows = compute_area_rows(
-                        self.scene,
-                        caster,
-                        self.hemi,
-                        &patches,
-                        self.origins,
-                        &progress,
-                    )?;
-                    check_rows(&rows)?;
-                    Ok(rows)
-                },
-                &mut |rows: Vec<Row>| {
-                    rows.iter().for_each(|r| gather.take(r));
-                    Ok(())
-                },
-            )
-        }
-    }
-    rows_with_caster(
-        scene,
-        opts.caster,
-        Job {
-            scene,
-            hemi,
-            origins: opts.origins,
-            progress,
-            gather: &mut gather,
-        },
-    )?;
+    for_each_row(scene, hemi, opts, progress, &mut |r| {
+        gather.take(r);
+        Ok(())
+    })?;
     let rows: Vec<Vec<(u32, f64)>> = if opts.by == Grouping::Patch {
         std::mem::take(&mut gather.patch_rows)
     } else {
@@ -295,14 +384,18 @@ pub enum MatrixFormat {
     /// View3D's own text output (its format 0): a header line, the areas, one row of
     /// factors a surface (six decimals, as View3D writes them), the emissivities.
     View3d,
+    /// coherad's compact binary file ([`crate::matrix_file`]): f64 triplets, written
+    /// row by row.
+    Bin,
 }
 
 impl MatrixFormat {
-    pub const ALL: [MatrixFormat; 4] = [
+    pub const ALL: [MatrixFormat; 5] = [
         MatrixFormat::Json,
         MatrixFormat::Csv,
         MatrixFormat::Mtx,
         MatrixFormat::View3d,
+        MatrixFormat::Bin,
     ];
 
     pub fn name(self) -> &'static str {
@@ -311,6 +404,7 @@ impl MatrixFormat {
             MatrixFormat::Csv => "csv",
             MatrixFormat::Mtx => "mtx",
             MatrixFormat::View3d => "view3d",
+            MatrixFormat::Bin => "bin",
         }
     }
 }
@@ -339,6 +433,7 @@ pub fn write_view_factors(
         MatrixFormat::Csv => write_csv(w, vf),
         MatrixFormat::Mtx => write_mtx(w, vf, run),
         MatrixFormat::View3d => write_view3d(w, vf),
+        MatrixFormat::Bin => write_bin(w, vf, run),
     }
 }
 

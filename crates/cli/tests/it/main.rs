@@ -590,4 +590,27 @@ fn view_factors_of_the_cube() {
         assert!(!r.status.success() && stderr.contains(says), "{stderr}");
         assert!(!bad.exists());
     }
+    // A binary file goes to a file, not a terminal.
+    let r = coherad(&["viewfactors", scene.to_str().unwrap(), "--format", "bin"]);
+    assert!(!r.status.success() && r.stdout.is_empty());
+    assert!(String::from_utf8_lossy(&r.stderr).contains("give --out FILE.bin"));
+    // Patch to patch, raw, streamed: the file reads back with the cube's 600 areas.
+    let bin = dir.path().join("cube.bin");
+    let r = coherad(&[
+        "viewfactors",
+        scene.to_str().unwrap(),
+        "--by",
+        "patch",
+        "--origins",
+        "1",
+        "--resolution",
+        "9x36",
+        "--out",
+        bin.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let bytes = std::fs::read(&bin).unwrap();
+    assert_eq!(&bytes[..8], b"COHERADM");
+    assert_eq!(u64::from_le_bytes(bytes[16..24].try_into().unwrap()), 600);
+    assert_eq!(&bytes[bytes.len() - 16..bytes.len() - 8], b"COHERADE");
 }

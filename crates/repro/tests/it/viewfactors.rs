@@ -476,3 +476,60 @@ fn view3d_output_is_view3ds_text_format() {
 fn text_starts(text: &str, prefix: &str) -> bool {
     text.starts_with(prefix)
 }
+
+#[test]
+fn the_binary_file_streams_round_trips_and_refuses_truncation() {
+    use rad_pipeline::matrix_file::read_matrix_file;
+    use rad_pipeline::viewfactors::stream_patch_matrix;
+    let scene = Scene::new(rad_geometry::scenes::cube(4)).unwrap();
+    let info = ViewFactorRun {
+        scene: "cube".into(),
+        scene_hash: "0".into(),
+        resolution: (180, 720),
+    };
+    let opts = ViewFactorOptions {
+        by: Grouping::Patch,
+        origins: 2,
+        ..ViewFactorOptions::for_scene(&scene)
+    };
+    // Streamed as made, and written from the held matrix: the same bytes.
+    let mut streamed = Vec::new();
+    let done = stream_patch_matrix(&scene, &hemi(), &opts, &info, &mut streamed, &|_| {}).unwrap();
+    let vf = view_factors(&scene, &hemi(), &opts, &|_| {}).unwrap();
+    let mut held = Vec::new();
+    write_view_factors(&mut held, &vf, &info, MatrixFormat::Bin).unwrap();
+    assert_eq!(streamed, held);
+    assert_eq!(
+        done.entries as usize,
+        vf.matrix.rows.iter().map(Vec::len).sum::<usize>()
+    );
+    let path = std::path::Path::new("cube.bin");
+    let back = read_matrix_file(&streamed, path).unwrap();
+    assert_eq!(back.areas, vf.matrix.area);
+    assert_eq!(back.metadata["names"][5], "patch 5");
+    assert_eq!(back.metadata["by"], "patch");
+    let mut k = 0;
+    for (i, row) in vf.matrix.rows.iter().enumerate() {
+        for &(j, f) in row {
+            assert_eq!(back.entries[k], (i as u32, j, f));
+            k += 1;
+        }
+    }
+    assert_eq!(k, back.entries.len());
+    // Truncated anywhere, or not ours: refused, naming the file.
+    for cut in [
+        streamed.len() - 1,
+        streamed.len() - 16,
+        streamed.len() / 2,
+        30,
+    ] {
+        let err = read_matrix_file(&streamed[..cut], path)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("cube.bin"), "{err}");
+    }
+    let err = read_matrix_file(b"not a matrix file at all, longer than the header", path)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("not a coherad matrix file"), "{err}");
+}
