@@ -66,9 +66,10 @@ enum Command {
     Viewfactors {
         scene: PathBuf,
         /// What a row is: patch, polygon, or group (every polygon's "group" in the JSON
-        /// format; an OBJ file's objects and groups).
-        #[arg(long, value_enum, default_value_t = ByKind::Polygon)]
-        by: ByKind,
+        /// format; an OBJ file's objects and groups; a View3D file's surfaces, combined
+        /// as its cmb fields say). Default: group for a .vs3 file, else polygon.
+        #[arg(long, value_enum)]
+        by: Option<ByKind>,
         /// N: N x N hemispheres spread over each patch and averaged (area to area; 1 is
         /// point to area, from the patch centre). Default 2.
         #[arg(long, default_value_t = rad_pipeline::viewfactors::DEFAULT_ORIGINS)]
@@ -78,9 +79,13 @@ enum Command {
         resolution: String,
         /// raw: as computed; reciprocal: A_I F_IJ = A_J F_JI, each row keeping its sum;
         /// closed: reciprocal and every row summing to 1 (a closed scene only: rows that
-        /// leak are named).
-        #[arg(long, value_enum, default_value_t = EnclosureKind::Raw)]
-        enclosure: EnclosureKind,
+        /// leak are named). Default: closed for a .vs3 file that says encl=1, else raw.
+        #[arg(long, value_enum)]
+        enclosure: Option<EnclosureKind>,
+        /// Hottel's total exchange factors (script-F) from the surfaces' emissivities
+        /// (1 - reflectance), after the enclosure rule; on for a .vs3 file that says emit=1.
+        #[arg(long)]
+        script_f: bool,
         /// json (surfaces and sparse rows), csv (a dense table, names in the first row
         /// and column), mtx (Matrix Market, for scipy.io.mmread), view3d (View3D's
         /// text output: areas, rows, emissivities) or bin (coherad's compact binary
@@ -316,12 +321,32 @@ fn run(cli: &Cli) -> Result<(), String> {
             origins,
             resolution,
             enclosure,
+            script_f,
             format,
             caster,
             out,
         } => {
             let scene = load(scene)?;
-            let opts = viewfactor_options(&scene, *by, *origins, *enclosure, *caster);
+            let v3 = scene.view3d.as_ref();
+            let by = by.unwrap_or(if v3.is_some() {
+                ByKind::Group
+            } else {
+                ByKind::Polygon
+            });
+            let encl = v3.is_some_and(|c| c.encl);
+            let enclosure = enclosure.unwrap_or(if encl {
+                EnclosureKind::Closed
+            } else {
+                EnclosureKind::Raw
+            });
+            let mut opts = viewfactor_options(&scene, by, *origins, enclosure, *caster);
+            opts.script_f = *script_f || v3.is_some_and(|c| c.emit);
+            if let Some(c) = v3.filter(|c| !c.ignored.is_empty()) {
+                eprintln!(
+                    "note: View3D options of its own integration, not used here: {}",
+                    c.ignored.join(" ")
+                );
+            }
             let format = matrix_format(*format, out.as_deref());
             viewfactors(&scene, resolution, &opts, format, out.as_deref())
         }

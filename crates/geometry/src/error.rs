@@ -91,7 +91,13 @@ pub enum Error {
     },
     #[error("{}: {message}", path.display())]
     Obj { path: PathBuf, message: String },
-    #[error("{}: unsupported scene file extension {ext:?} (expected .json or .obj)", path.display())]
+    #[error("{}:{line}: {message}", path.display())]
+    View3d {
+        path: PathBuf,
+        line: usize,
+        message: String,
+    },
+    #[error("{}: unsupported scene file extension {ext:?} (expected .json, .obj or .vs3)", path.display())]
     UnknownFormat { path: PathBuf, ext: String },
     #[error("{}: {source}", path.display())]
     InFile { path: PathBuf, source: Box<Error> },

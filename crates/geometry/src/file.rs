@@ -3,15 +3,18 @@
 
 mod json;
 mod obj;
+mod vs3;
 
 pub use json::{scene_desc_from_json, scene_desc_to_json, scene_desc_to_json_indexed};
 pub use obj::load_obj;
+pub use vs3::{load_vs3, vs3_from_text, View3dControl, VS3_DEFAULT_GRID};
 
 use crate::error::Error;
 use crate::scene::{Scene, SceneDesc};
 use std::path::Path;
 
-/// Reads a scene file, by extension: `.json` (our format) or `.obj` (with its MTL).
+/// Reads a scene file, by extension: `.json` (our format), `.obj` (with its MTL) or
+/// `.vs3` (View3D's input).
 ///
 /// `patch_size` sets the patch grid of OBJ polygons, and of JSON polygons that give
 /// neither `patches` nor `patch_size` (nor a file-wide `patch_size`).
@@ -58,6 +61,7 @@ pub fn load_scene_desc(path: &Path, patch_size: Option<f64>) -> Result<SceneDesc
             let size = patch_size.unwrap_or(DEFAULT_OBJ_PATCH_SIZE_HINT);
             load_obj(path, size)
         }
+        "vs3" => load_vs3(path, patch_size).map(|(desc, _)| desc),
         _ => Err(Error::UnknownFormat {
             path: path.to_path_buf(),
             ext,

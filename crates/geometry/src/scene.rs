@@ -71,6 +71,9 @@ pub struct PolygonDesc {
     /// The surface it belongs to, for surface-level view factors (`--by group`): the
     /// JSON format's `group`, an OBJ file's object or group.
     pub group: Option<String>,
+    /// An obstruction only (the JSON format's `obstruction`, View3D's O surfaces): it
+    /// blocks rays like any polygon, but view factors give it no row and no column.
+    pub obstruction: bool,
 }
 
 /// A scene as described, before validation.
@@ -91,6 +94,7 @@ pub struct Scene {
     camera: Option<Camera>,
     bounds: (Vec3, Vec3),
     groups: Vec<Option<String>>,
+    obstructions: Vec<bool>,
 }
 
 impl Scene {
@@ -131,6 +135,7 @@ impl Scene {
         let mut polygons = Vec::with_capacity(desc.polygons.len());
         let mut patches: Vec<Patch> = Vec::new();
         let mut groups = Vec::with_capacity(desc.polygons.len());
+        let mut obstructions = Vec::with_capacity(desc.polygons.len());
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
         for (idx, pd) in desc.polygons.into_iter().enumerate() {
@@ -164,6 +169,7 @@ impl Scene {
             }
             let name = pd.name.clone();
             groups.push(pd.group);
+            obstructions.push(pd.obstruction);
             let built = Polygon::build(
                 pd.name,
                 pd.vertices,
@@ -190,6 +196,7 @@ impl Scene {
             camera: desc.camera,
             bounds: (lo, hi),
             groups,
+            obstructions,
         })
     }
 
@@ -201,6 +208,10 @@ impl Scene {
     }
     pub fn materials(&self) -> &[Material] {
         &self.materials
+    }
+    /// Whether polygon `polygon` is an obstruction only ([`PolygonDesc::obstruction`]).
+    pub fn is_obstruction(&self, polygon: usize) -> bool {
+        self.obstructions.get(polygon).copied().unwrap_or(false)
     }
     /// The group polygon `polygon` belongs to, if it names one.
     pub fn group(&self, polygon: usize) -> Option<&str> {

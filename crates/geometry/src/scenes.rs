@@ -30,6 +30,7 @@ pub(crate) fn rect(
         material,
         grid,
         group: None,
+        obstruction: false,
     }
 }
 

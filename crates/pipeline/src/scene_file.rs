@@ -2,7 +2,7 @@
 //! solution is only ever read back against the very scene it was made for.
 
 use crate::Error;
-use rad_geometry::file::load_scene;
+use rad_geometry::file::{load_scene, load_vs3, View3dControl};
 use rad_geometry::Scene;
 use std::path::{Path, PathBuf};
 
@@ -13,6 +13,8 @@ pub struct SceneFile {
     pub scene: Scene,
     /// [`fingerprint`] of the scene as loaded.
     pub hash: u64,
+    /// A View3D file's control options (title, `encl`, `emit`, those ignored).
+    pub view3d: Option<View3dControl>,
 }
 
 impl SceneFile {
@@ -26,12 +28,26 @@ impl SceneFile {
                 source,
             });
         }
-        let scene = load_scene(path, patch_size)?;
+        let is_vs3 = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("vs3"));
+        let (scene, view3d) = if is_vs3 {
+            let (desc, control) = load_vs3(path, patch_size)?;
+            let scene = Scene::new(desc).map_err(|e| rad_geometry::Error::InFile {
+                path: path.to_path_buf(),
+                source: Box::new(e),
+            })?;
+            (scene, Some(control))
+        } else {
+            (load_scene(path, patch_size)?, None)
+        };
         let hash = fingerprint(&scene);
         Ok(SceneFile {
             path: path.to_path_buf(),
             scene,
             hash,
+            view3d,
         })
     }
 

@@ -479,6 +479,7 @@ mod tests {
             path: "cube.json".into(),
             scene: Scene::new(cube(2)).unwrap(),
             hash,
+            view3d: None,
         }
     }
 

@@ -49,6 +49,9 @@ pub struct ViewFactorOptions {
     pub origins: u32,
     pub enclosure: Enclosure,
     pub caster: CasterKind,
+    /// Hottel's total exchange factors from the surfaces' emissivities (1 − their
+    /// materials' mean reflectance), after the enclosure rule: View3D's `emit=1`.
+    pub script_f: bool,
 }
 
 impl ViewFactorOptions {
@@ -59,6 +62,7 @@ impl ViewFactorOptions {
             origins: DEFAULT_ORIGINS,
             enclosure: Enclosure::Raw,
             caster: CasterKind::fastest_for(scene.polygons().len()),
+            script_f: false,
         }
     }
 }
@@ -69,6 +73,8 @@ pub struct ViewFactors {
     pub by: Grouping,
     pub origins: u32,
     pub enclosure: Enclosure,
+    /// Whether `matrix` holds script-F ([`ViewFactorOptions::script_f`]).
+    pub script_f: bool,
     /// One name a surface: the polygon's or group's name, or `patch N`.
     pub names: Vec<String>,
     /// The factors under the enclosure rule (areas included).
@@ -77,33 +83,36 @@ pub struct ViewFactors {
     /// rays that met the back of a polygon (as computed, before the enclosure rule).
     pub escaped: Vec<f64>,
     pub back: Vec<f64>,
+    /// ...and of rays that met an obstruction-only polygon.
+    pub obstructed: Vec<f64>,
     /// Per surface, its area-weighted emissivity, 1 − the mean of its materials'
     /// reflectance channels (grey surfaces: what View3D's output lists).
     pub emissivity: Vec<f64>,
     pub report: EnclosureReport,
 }
 
-/// The surfaces of `scene` under `by`: (each patch's surface, the surfaces' names).
+/// A patch of an obstruction polygon belongs to no surface.
+const NO_SURFACE: u32 = u32::MAX;
+
+/// The surfaces of `scene` under `by`: (each patch's surface, or [`NO_SURFACE`] for an
+/// obstruction's, and the surfaces' names). Surfaces are numbered in order of their
+/// first patch.
 fn surfaces(scene: &Scene, by: Grouping) -> Result<(Vec<u32>, Vec<String>), Error> {
-    let patches = scene.patches();
-    match by {
-        Grouping::Patch => Ok((
-            (0..patches.len() as u32).collect(),
-            (0..patches.len()).map(|p| format!("patch {p}")).collect(),
-        )),
-        Grouping::Polygon => Ok((
-            patches.iter().map(|p| p.polygon).collect(),
-            scene
-                .polygons()
-                .iter()
-                .map(|p| p.name().to_string())
-                .collect(),
-        )),
-        Grouping::Group => {
-            let mut index: HashMap<&str, u32> = HashMap::new();
-            let mut names = Vec::new();
-            let mut of_polygon = Vec::with_capacity(scene.polygons().len());
-            for (k, poly) in scene.polygons().iter().enumerate() {
+    let mut names = Vec::new();
+    let mut of_polygon = Vec::with_capacity(scene.polygons().len());
+    let mut index: HashMap<&str, u32> = HashMap::new();
+    for (k, poly) in scene.polygons().iter().enumerate() {
+        if scene.is_obstruction(k) {
+            of_polygon.push(NO_SURFACE);
+            continue;
+        }
+        let id = match by {
+            Grouping::Patch => 0, // numbered per patch below
+            Grouping::Polygon => {
+                names.push(poly.name().to_string());
+                names.len() as u32 - 1
+            }
+            Grouping::Group => {
                 let Some(g) = scene.group(k) else {
                     return Err(Error::Parse {
                         what: "grouping",
@@ -114,21 +123,25 @@ fn surfaces(scene: &Scene, by: Grouping) -> Result<(Vec<u32>, Vec<String>), Erro
                         ),
                     });
                 };
-                let id = *index.entry(g).or_insert_with(|| {
+                *index.entry(g).or_insert_with(|| {
                     names.push(g.to_string());
                     names.len() as u32 - 1
-                });
-                of_polygon.push(id);
+                })
             }
-            Ok((
-                patches
-                    .iter()
-                    .map(|p| of_polygon[p.polygon as usize])
-                    .collect(),
-                names,
-            ))
+        };
+        of_polygon.push(id);
+    }
+    let mut surface = Vec::with_capacity(scene.patches().len());
+    for (p, patch) in scene.patches().iter().enumerate() {
+        let s = of_polygon[patch.polygon as usize];
+        if by == Grouping::Patch && s != NO_SURFACE {
+            names.push(format!("patch {p}"));
+            surface.push(names.len() as u32 - 1);
+        } else {
+            surface.push(s);
         }
     }
+    Ok((surface, names))
 }
 
 /// Sums of `A_i F_ij` into surface rows, taken row by row in patch order (so the sums,
@@ -141,13 +154,16 @@ struct Gather<'a> {
     patch_rows: Vec<Vec<(u32, f64)>>,
     escaped: Vec<f64>,
     back: Vec<f64>,
+    obstructed: Vec<f64>,
 }
 
 impl Gather<'_> {
     fn take(&mut self, row: &Row) {
         let s = self.surface[row.patch as usize] as usize;
         if self.by == Grouping::Patch {
-            self.patch_rows[s] = row.entries.iter().map(|&(j, f)| (j, f)).collect();
+            let (seen, blocked) = patch_row(self.surface, row);
+            self.patch_rows[s] = seen;
+            self.obstructed[s] = blocked;
             self.escaped[s] = row.escaped;
             self.back[s] = row.back;
             return;
@@ -155,14 +171,35 @@ impl Gather<'_> {
         let a = self.scene.patches()[row.patch as usize].area;
         let acc = &mut self.rows[s];
         for &(j, f) in &row.entries {
-            *acc.entry(self.surface[j as usize]).or_insert(0.0) += a * f;
+            match self.surface[j as usize] {
+                NO_SURFACE => self.obstructed[s] += a * f,
+                t => *acc.entry(t).or_insert(0.0) += a * f,
+            }
         }
         self.escaped[s] += a * row.escaped;
         self.back[s] += a * row.back;
     }
 }
 
-/// Every patch's row (averaged over `opts.origins`² origins), made in chunks of whole
+/// A patch row's entries as surface columns (the very values: patch surfaces are the
+/// patches, renumbered past obstructions), and what obstructions took.
+fn patch_row(surface: &[u32], row: &Row) -> (Vec<(u32, f64)>, f64) {
+    let mut blocked = 0.0;
+    let seen = row
+        .entries
+        .iter()
+        .filter_map(|&(j, f)| match surface[j as usize] {
+            NO_SURFACE => {
+                blocked += f;
+                None
+            }
+            t => Some((t, f)),
+        })
+        .collect();
+    (seen, blocked)
+}
+
+/// Every patch's row but obstructions' (averaged over `opts.origins`² origins), made in chunks of whole
 /// polygons in parallel through `opts.caster` and handed to `sink` in patch order.
 fn for_each_row(
     scene: &Scene,
@@ -186,7 +223,11 @@ fn for_each_row(
             for_each_chunk(
                 &chunks,
                 |r| {
-                    let (patches, progress) = chunk_patches(r, self.progress);
+                    let (mut patches, progress) = chunk_patches(r, self.progress);
+                    let scene = self.scene;
+                    patches.retain(|&p| {
+                        !scene.is_obstruction(scene.patches()[p as usize].polygon as usize)
+                    });
                     let rows = compute_area_rows(
                         self.scene,
                         caster,
@@ -238,9 +279,19 @@ pub fn stream_patch_matrix(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Streamed, Error> {
     let (surface, names) = surfaces(scene, Grouping::Patch)?;
-    let n = surface.len();
-    let areas: Vec<f64> = scene.patches().iter().map(|p| p.area).collect();
-    let meta = bin_metadata(run, Grouping::Patch, opts.origins, Enclosure::Raw, &names);
+    let n = names.len();
+    let areas: Vec<f64> = (0..surface.len())
+        .filter(|&p| surface[p] != NO_SURFACE)
+        .map(|p| scene.patches()[p].area)
+        .collect();
+    let meta = bin_metadata(
+        run,
+        Grouping::Patch,
+        opts.origins,
+        Enclosure::Raw,
+        false,
+        &names,
+    );
     let io = |e: std::io::Error| Error::Io {
         action: "write",
         path: "the matrix file".into(),
@@ -257,7 +308,7 @@ pub fn stream_patch_matrix(
     for_each_row(scene, hemi, opts, progress, &mut |r| {
         done.escaping_rows += usize::from(r.escaped > 0.0);
         done.back_rows += usize::from(r.back > 0.0);
-        out.row(&r.entries).map_err(io)
+        out.row(&patch_row(&surface, r).0).map_err(io)
     })?;
     done.entries = out.finish().map_err(io)?;
     Ok(done)
@@ -268,6 +319,7 @@ fn bin_metadata(
     by: Grouping,
     origins: u32,
     enclosure: Enclosure,
+    script_f: bool,
     names: &[String],
 ) -> serde_json::Value {
     serde_json::json!({
@@ -278,12 +330,13 @@ fn bin_metadata(
         "by": by.name(),
         "origins": origins,
         "enclosure": enclosure.name(),
+        "script_f": script_f,
         "names": names,
     })
 }
 
 fn write_bin(w: &mut dyn Write, vf: &ViewFactors, run: &ViewFactorRun) -> std::io::Result<()> {
-    let meta = bin_metadata(run, vf.by, vf.origins, vf.enclosure, &vf.names);
+    let meta = bin_metadata(run, vf.by, vf.origins, vf.enclosure, vf.script_f, &vf.names);
     let m = &vf.matrix;
     let mut out = crate::matrix_file::MatrixWriter::begin(w, m.n() as u64, &meta, &m.area)?;
     for row in &m.rows {
@@ -306,6 +359,9 @@ pub fn view_factors(
     let mut area = vec![0.0; n];
     let mut emissivity = vec![0.0; n];
     for (p, patch) in scene.patches().iter().enumerate() {
+        if surface[p] == NO_SURFACE {
+            continue;
+        }
         let s = surface[p] as usize;
         area[s] += patch.area;
         let rho = scene.patch_material(p as PatchId).reflectance.0;
@@ -330,6 +386,7 @@ pub fn view_factors(
         },
         escaped: vec![0.0; n],
         back: vec![0.0; n],
+        obstructed: vec![0.0; n],
     };
     for_each_row(scene, hemi, opts, progress, &mut |r| {
         gather.take(r);
@@ -350,23 +407,32 @@ pub fn view_factors(
             })
             .collect()
     };
-    let (mut escaped, mut back) = (gather.escaped, gather.back);
+    let (mut escaped, mut back, mut obstructed) = (gather.escaped, gather.back, gather.obstructed);
     if opts.by != Grouping::Patch {
         for s in 0..n {
             escaped[s] /= area[s];
             back[s] /= area[s];
+            obstructed[s] /= area[s];
         }
     }
     let raw = SurfaceMatrix { area, rows };
-    let (matrix, report) = raw.enforce(opts.enclosure)?;
+    // Rays that met an obstruction or the back of a polygon do not leak (only escaping
+    // rays do); `closed` spreads them over the row, as View3D's encl=1 does.
+    let blocked: Vec<f64> = (0..n).map(|s| obstructed[s] + back[s]).collect();
+    let (mut matrix, report) = raw.enforce_blocked(opts.enclosure, &blocked)?;
+    if opts.script_f {
+        matrix = matrix.script_f(&emissivity)?;
+    }
     Ok(ViewFactors {
         by: opts.by,
         origins: opts.origins,
         enclosure: opts.enclosure,
+        script_f: opts.script_f,
         names,
         matrix,
         escaped,
         back,
+        obstructed,
         emissivity,
         report,
     })
@@ -491,6 +557,7 @@ fn write_json(w: &mut dyn Write, vf: &ViewFactors, run: &ViewFactorRun) -> std::
     writeln!(w, "  \"by\": \"{}\",", vf.by.name())?;
     writeln!(w, "  \"origins\": {},", vf.origins)?;
     writeln!(w, "  \"enclosure\": \"{}\",", vf.enclosure.name())?;
+    writeln!(w, "  \"script_f\": {},", vf.script_f)?;
     writeln!(
         w,
         "  \"report\": {{\"raw\": {}, \"fixed\": {}, \"max_change\": {:e}, \"products\": {}}},",
@@ -507,12 +574,13 @@ fn write_json(w: &mut dyn Write, vf: &ViewFactors, run: &ViewFactorRun) -> std::
             .collect();
         writeln!(
             w,
-            "    {{\"id\": {i}, \"name\": {}, \"area\": {:?}, \"row_sum\": {:?}, \"escaped\": {:?}, \"back\": {:?}, \"factors\": [{}]}}{}",
+            "    {{\"id\": {i}, \"name\": {}, \"area\": {:?}, \"row_sum\": {:?}, \"escaped\": {:?}, \"back\": {:?}, \"obstructed\": {:?}, \"factors\": [{}]}}{}",
             json_string(&vf.names[i]),
             m.area[i],
             m.row_sum(i),
             vf.escaped[i],
             vf.back[i],
+            vf.obstructed[i],
             row.join(", "),
             if i + 1 < m.n() { "," } else { "" }
         )?;
@@ -550,7 +618,8 @@ fn write_mtx(w: &mut dyn Write, vf: &ViewFactors, run: &ViewFactorRun) -> std::i
     writeln!(w, "%%MatrixMarket matrix coordinate real general")?;
     writeln!(
         w,
-        "% coherad view factors F_IJ (row I sees column J) of {} by {}, {} origins a patch side, {}x{} hemisphere, enclosure {}",
+        "% coherad {} (row I sees column J) of {} by {}, {} origins a patch side, {}x{} hemisphere, enclosure {}",
+        if vf.script_f { "total exchange factors script-F_IJ" } else { "view factors F_IJ" },
         json_string(&run.scene), vf.by.name(), vf.origins, run.resolution.0, run.resolution.1, vf.enclosure.name()
     )?;
     writeln!(w, "% scene_hash {}", run.scene_hash)?;
@@ -578,7 +647,12 @@ fn write_view3d(w: &mut dyn Write, vf: &ViewFactors) -> std::io::Result<()> {
     // View3D's header: program, version, format (0: text), encl, didemit, surfaces,
     // padded to 30 characters.
     let encl = u8::from(vf.enclosure == Enclosure::Closed);
-    let header = format!("coherad {} 0 {encl} 0 {}", env!("CARGO_PKG_VERSION"), m.n());
+    let header = format!(
+        "coherad {} 0 {encl} {} {}",
+        env!("CARGO_PKG_VERSION"),
+        u8::from(vf.script_f),
+        m.n()
+    );
     writeln!(w, "{header:<30}")?;
     let areas: Vec<String> = m.area.iter().map(|a| format!("{}", Float(*a))).collect();
     writeln!(w, "{}", areas.join(" "))?;

@@ -15,7 +15,8 @@ pub enum Enclosure {
     /// the symmetric part of `A_I F_IJ` and X diagonal (the solver's reciprocal scaling).
     Reciprocal,
     /// Reciprocity and every row summing to 1: the same scaling with unit targets. Only
-    /// for a closed scene: a row whose raw sum is below `1 − LEAK_TOLERANCE` leaks.
+    /// for a closed scene: a row whose raw sum (with what is blocked, see
+    /// [`SurfaceMatrix::enforce_blocked`]) is below `1 − LEAK_TOLERANCE` leaks.
     Closed,
 }
 
@@ -168,12 +169,30 @@ impl SurfaceMatrix {
     /// The matrix under `rule`, with what it changed. `Closed` on rows that leak (raw
     /// sum below 1 − [`LEAK_TOLERANCE`]) is [`Error::Leaks`], naming them.
     pub fn enforce(&self, rule: Enclosure) -> Result<(SurfaceMatrix, EnclosureReport), Error> {
+        self.enforce_blocked(rule, &[])
+    }
+
+    /// [`SurfaceMatrix::enforce`] where `blocked[I]` of row I's rays met obstructions
+    /// (no surface of the matrix): they do not leak, and `Closed` spreads them over the
+    /// row as View3D's `encl=1` does. An empty `blocked` is all zeros.
+    pub fn enforce_blocked(
+        &self,
+        rule: Enclosure,
+        blocked: &[f64],
+    ) -> Result<(SurfaceMatrix, EnclosureReport), Error> {
         self.check()?;
+        if !blocked.is_empty() && blocked.len() != self.n() {
+            return Err(Error::LengthMismatch {
+                what: "obstructed shares",
+                len: blocked.len(),
+                n_patches: self.n(),
+            });
+        }
         if self.rows.iter().any(|r| r.iter().any(|e| e.1 == 0.0)) {
             // Explicit zeros are no entries: drop them, then go on.
             let mut clean = self.clone();
             clean.rows.iter_mut().for_each(|r| r.retain(|e| e.1 > 0.0));
-            return clean.enforce(rule);
+            return clean.enforce_blocked(rule, blocked);
         }
         let raw = self.errors();
         let n = self.n();
@@ -188,8 +207,9 @@ impl SurfaceMatrix {
         }
         let sums: Vec<f64> = (0..n).map(|i| self.row_sum(i)).collect();
         if rule == Enclosure::Closed {
+            let seen = |i: usize| sums[i] + blocked.get(i).copied().unwrap_or(0.0);
             let leaks: Vec<(u32, f64)> = (0..n)
-                .filter(|&i| sums[i] < 1.0 - LEAK_TOLERANCE)
+                .filter(|&i| seen(i) < 1.0 - LEAK_TOLERANCE)
                 .map(|i| (i as u32, sums[i]))
                 .collect();
             if !leaks.is_empty() {
@@ -287,6 +307,105 @@ impl SurfaceMatrix {
     }
 }
 
+/// The most surfaces [`SurfaceMatrix::script_f`] takes (a dense n × n solve).
+pub const MAX_SCRIPT_F: usize = 4000;
+
+impl SurfaceMatrix {
+    /// Hottel's total exchange factors ("script-F") of grey diffuse surfaces with
+    /// emissivities `emissivity`: 𝓕 = E F (I − (I − E) F)⁻¹ E, that is A_I 𝓕_IJ the total
+    /// exchange area between I and J (what View3D's `emit=1` reports). For a closed,
+    /// reciprocal F each row sums to ε_I and A 𝓕 is symmetric. Dense, by LU with partial
+    /// pivoting: at most [`MAX_SCRIPT_F`] surfaces.
+    pub fn script_f(&self, emissivity: &[f64]) -> Result<SurfaceMatrix, Error> {
+        let n = self.n();
+        if emissivity.len() != n {
+            return Err(Error::LengthMismatch {
+                what: "emissivities",
+                len: emissivity.len(),
+                n_patches: n,
+            });
+        }
+        if let Some(i) = (0..n).find(|&i| !(emissivity[i] > 0.0 && emissivity[i] <= 1.0)) {
+            return Err(Error::BadSurface {
+                patch: i as u32,
+                what: "emissivity",
+                value: [emissivity[i]; 3],
+                rule: "in (0, 1]",
+            });
+        }
+        if n > MAX_SCRIPT_F {
+            return Err(Error::BadConfig {
+                what: "surfaces for script-F",
+                value: n as f64,
+                rule: "at most 4000 (a dense solve)",
+            });
+        }
+        // Mᵀ, M = I − (I − E) F, row-major; X = F M⁻¹ solved as Mᵀ Xᵀ = Fᵀ.
+        let mut mt = vec![0.0f64; n * n];
+        for i in 0..n {
+            mt[i * n + i] += 1.0;
+            for &(j, f) in &self.rows[i] {
+                mt[j as usize * n + i] -= (1.0 - emissivity[i]) * f;
+            }
+        }
+        let mut perm: Vec<usize> = (0..n).collect();
+        for k in 0..n {
+            let p = (k..n)
+                .max_by(|&a, &b| mt[a * n + k].abs().total_cmp(&mt[b * n + k].abs()))
+                .expect("k < n");
+            if !(mt[p * n + k].abs() > 1e-300) {
+                return Err(Error::NoReciprocalScaling { iterations: 0 });
+            }
+            if p != k {
+                for c in 0..n {
+                    mt.swap(p * n + c, k * n + c);
+                }
+                perm.swap(p, k);
+            }
+            let pivot = mt[k * n + k];
+            for r in k + 1..n {
+                let l = mt[r * n + k] / pivot;
+                mt[r * n + k] = l;
+                if l != 0.0 {
+                    for c in k + 1..n {
+                        mt[r * n + c] -= l * mt[k * n + c];
+                    }
+                }
+            }
+        }
+        let mut rows = Vec::with_capacity(n);
+        let mut b = vec![0.0f64; n];
+        for i in 0..n {
+            // Row i of X: Mᵀ x = (row i of F)ᵀ, permuted.
+            let mut dense = vec![0.0f64; n];
+            for &(j, f) in &self.rows[i] {
+                dense[j as usize] = f;
+            }
+            for r in 0..n {
+                b[r] = dense[perm[r]];
+            }
+            for r in 0..n {
+                let s: f64 = (0..r).map(|c| mt[r * n + c] * b[c]).sum();
+                b[r] -= s;
+            }
+            for r in (0..n).rev() {
+                let s: f64 = (r + 1..n).map(|c| mt[r * n + c] * b[c]).sum();
+                b[r] = (b[r] - s) / mt[r * n + r];
+            }
+            rows.push(
+                (0..n)
+                    .map(|j| (j as u32, emissivity[i] * b[j] * emissivity[j]))
+                    .filter(|e| e.1 > 0.0)
+                    .collect(),
+            );
+        }
+        Ok(SurfaceMatrix {
+            area: self.area.clone(),
+            rows,
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -317,6 +436,43 @@ mod tests {
         assert!((r.area[0] * r.get(0, 1) - r.area[1] * r.get(1, 0)).abs() < 1e-15);
         assert!(rep.fixed.reciprocity.max < 1e-12);
         assert!(m.enforce(Enclosure::Closed).is_err());
+    }
+
+    #[test]
+    fn script_f_of_two_parallel_plates_and_a_closed_box() {
+        // Infinite parallel plates (F = 1 each way): 𝓕 = 1 / (1/ε1 + 1/ε2 − 1).
+        let plates = SurfaceMatrix {
+            area: vec![1.0, 1.0],
+            rows: vec![vec![(1, 1.0)], vec![(0, 1.0)]],
+        };
+        let (e1, e2) = (0.8, 0.3);
+        let sf = plates.script_f(&[e1, e2]).unwrap();
+        let want = 1.0 / (1.0 / e1 + 1.0 / e2 - 1.0);
+        assert!((sf.get(0, 1) - want).abs() < 1e-14 && (sf.get(1, 0) - want).abs() < 1e-14);
+        // Black surfaces: script-F is F.
+        assert_eq!(plates.script_f(&[1.0, 1.0]).unwrap(), plates);
+        // A closed, reciprocal enclosure: rows sum to ε, A 𝓕 symmetric.
+        let third = 1.0 / 3.0;
+        let tri = SurfaceMatrix {
+            area: vec![1.0, 1.0, 1.0, 1.0],
+            rows: (0..4u32)
+                .map(|i| (0..4u32).filter(|&j| j != i).map(|j| (j, third)).collect())
+                .collect(),
+        };
+        let e = [0.9, 0.5, 0.2, 0.7];
+        let sf = tri.script_f(&e).unwrap();
+        for i in 0..4 {
+            assert!(
+                (sf.row_sum(i) - e[i]).abs() < 1e-14,
+                "row {i}: {}",
+                sf.row_sum(i)
+            );
+            for j in 0..4 {
+                assert!((sf.get(i, j) - sf.get(j, i)).abs() < 1e-15);
+            }
+        }
+        assert!(sf.get(1, 1) > 0.0, "self-exchange through reflections");
+        assert!(plates.script_f(&[0.0, 1.0]).is_err());
     }
 
     #[test]

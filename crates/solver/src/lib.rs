@@ -18,6 +18,7 @@ mod solve;
 
 pub use enclosure::{
     Enclosure, EnclosureErrors, EnclosureReport, ErrorQuantiles, SurfaceMatrix, LEAK_TOLERANCE,
+    MAX_SCRIPT_F,
 };
 pub use matrix::{FormFactors, Reciprocity};
 pub use operator::Operator;
@@ -67,7 +68,7 @@ pub enum Error {
         value: [f64; 3],
         rule: &'static str,
     },
-    #[error("{count} rows leak, so the scene is no closed enclosure (a row's form factors sum below 1 - {tolerance}: rays escape, or meet the backs of polygons); the first (row, sum): {first:?}; use --enclosure reciprocal or raw, or close the scene")]
+    #[error("{count} rows leak, so the scene is no closed enclosure (over {tolerance} of a row's rays escape the scene); the first (row, what its factors and blocked rays sum to): {first:?}; use --enclosure reciprocal or raw, or close the scene")]
     Leaks {
         count: usize,
         first: Vec<(u32, f64)>,

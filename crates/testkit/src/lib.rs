@@ -72,6 +72,7 @@ pub fn convex_polygon(idx: usize) -> impl Strategy<Value = PolygonDesc> {
         material: 0,
         grid: PatchGrid::Cells { nu, nv },
         group: None,
+        obstruction: false,
     })
 }
 

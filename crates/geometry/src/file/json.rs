@@ -50,6 +50,9 @@ struct FilePolygon {
     /// The surface it belongs to (`coherad viewfactors --by group`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     group: Option<String>,
+    /// Blocks rays but gets no view factors (`coherad viewfactors`: no row, no column).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    obstruction: bool,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -163,6 +166,7 @@ pub fn scene_desc_from_json(
             material,
             grid,
             group: p.group,
+            obstruction: p.obstruction,
         });
     }
     let camera = file.camera.map(|c| Camera {
@@ -201,6 +205,7 @@ pub fn scene_desc_to_json(desc: &SceneDesc, description: Option<&str>) -> String
                     patches,
                     patch_size,
                     group: p.group.clone(),
+                    obstruction: p.obstruction,
                 }
             })
             .collect(),
@@ -243,6 +248,7 @@ pub fn scene_desc_to_json_indexed(desc: &SceneDesc, description: Option<&str>) -
             patches,
             patch_size,
             group: p.group.clone(),
+            obstruction: p.obstruction,
         });
     }
     let mut s = String::from("{\n");

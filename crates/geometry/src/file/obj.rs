@@ -98,6 +98,7 @@ pub fn load_obj(path: &Path, patch_size: f64) -> Result<SceneDesc, Error> {
                 material,
                 grid: PatchGrid::Size(patch_size),
                 group: Some(model.name.clone()),
+                obstruction: false,
             });
             start += arity;
         }

@@ -107,6 +107,7 @@ pub fn cornell_box(patch_size: f32) -> SceneDesc {
         material,
         grid: size,
         group: None,
+        obstruction: false,
     };
     let mut polygons = Vec::new();
     // Floor, cut around the two block footprints (y = 0, normal +y).

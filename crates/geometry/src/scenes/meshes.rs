@@ -40,6 +40,7 @@ fn loft_cut(cut: impl Fn(&[Vec3]) -> Vec<Vec<Vec3>>) -> SceneDesc {
                 material,
                 grid: ONE,
                 group: None,
+                obstruction: false,
             });
         }
     }
@@ -138,6 +139,7 @@ pub fn blob_room() -> SceneDesc {
             material: 1,
             grid: ONE,
             group: None,
+            obstruction: false,
         });
     }
     SceneDesc {

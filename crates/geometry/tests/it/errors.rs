@@ -19,6 +19,7 @@ fn one(vertices: Vec<Vec3>, grid: PatchGrid) -> SceneDesc {
             material: 0,
             grid,
             group: None,
+            obstruction: false,
         }],
         camera: None,
     }
@@ -325,6 +326,7 @@ fn scenes_outside_the_numeric_range_are_refused() {
         material: 0,
         grid: rad_geometry::PatchGrid::Cells { nu: 1, nv: 1 },
         group: None,
+        obstruction: false,
     });
     let e = Scene::new(d).unwrap_err().to_string();
     assert!(

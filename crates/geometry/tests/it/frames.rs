@@ -19,6 +19,7 @@ fn scene(vertices: Vec<Vec3>, grid: PatchGrid) -> Scene {
             material: 0,
             grid,
             group: None,
+            obstruction: false,
         }],
         camera: None,
     })

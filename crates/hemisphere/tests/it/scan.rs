@@ -215,6 +215,7 @@ fn skewed_pentagon(
         material: 0,
         grid: rad_geometry::PatchGrid::Cells { nu: 3, nv: 3 },
         group: None,
+        obstruction: false,
     }
 }
 
@@ -292,6 +293,7 @@ fn scan_matches_the_grid_around_a_pentagon_off_its_plane() {
         material: 0,
         grid: rad_geometry::PatchGrid::Cells { nu: 2, nv: 2 },
         group: None,
+        obstruction: false,
     }];
     for k in 0..300 {
         let side = if k % 2 == 0 { 1.0 } else { -1.0 };
@@ -310,6 +312,7 @@ fn scan_matches_the_grid_around_a_pentagon_off_its_plane() {
             material: 0,
             grid: rad_geometry::PatchGrid::Cells { nu: 1, nv: 1 },
             group: None,
+            obstruction: false,
         });
     }
     let scene = Scene::new(SceneDesc {
@@ -415,8 +418,8 @@ proptest! {
                 emission: rad_core::Rgb([0.0; 3]),
             }],
             polygons: vec![
-                PolygonDesc { name: "floor".into(), vertices: floor, material: 0, grid: one, group: None },
-                PolygonDesc { name: "tilted".into(), vertices: tilted, material: 0, grid: one, group: None },
+                PolygonDesc { name: "floor".into(), vertices: floor, material: 0, grid: one, group: None, obstruction: false },
+                PolygonDesc { name: "tilted".into(), vertices: tilted, material: 0, grid: one, group: None, obstruction: false },
             ],
             camera: None,
         };

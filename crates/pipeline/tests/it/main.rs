@@ -15,6 +15,7 @@ fn loft() -> SceneFile {
         path: "loft.json".into(),
         scene: Scene::new(scenes::loft()).unwrap(),
         hash: 1,
+        view3d: None,
     }
 }
 

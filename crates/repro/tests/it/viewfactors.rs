@@ -28,6 +28,7 @@ fn poly(name: &str, vertices: Vec<Vec3>, grid: PatchGrid, group: Option<&str>) -
         material: 0,
         grid,
         group: group.map(str::to_string),
+        obstruction: false,
     }
 }
 
@@ -532,4 +533,183 @@ fn the_binary_file_streams_round_trips_and_refuses_truncation() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("not a coherad matrix file"), "{err}");
+}
+
+/// A `.vs3` file in a temporary directory, loaded as the CLI loads it.
+fn vs3(text: &str) -> Result<rad_pipeline::SceneFile, String> {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("case.vs3");
+    std::fs::write(&path, text).unwrap();
+    rad_pipeline::SceneFile::load(&path, None).map_err(|e| e.to_string())
+}
+
+const PARALLEL_VS3: &str = "T  two parallel unit squares 1 apart (View3D's ParallelPlanes)
+C  list=1 row=0 col=0
+F  3
+!   #   x     y     z
+V   1   0.00  0.00  0.00
+V   2   1.00  0.00  0.00
+V   3   1.00  1.00  0.00
+V   4   0.00  1.00  0.00
+V   5   0.00  0.00  1.00
+V   6   1.00  0.00  1.00
+V   7   1.00  1.00  1.00
+V   8   0.00  1.00  1.00
+!   #   v1  v2  v3  v4 base cmb emit  name
+S   1    1   2   3   4   0   0  0.90  bottom
+S   2    8   7   6   5   0   0  0.90  top
+End of data
+";
+
+fn vs3_options(file: &rad_pipeline::SceneFile) -> ViewFactorOptions {
+    let c = file.view3d.as_ref().unwrap();
+    ViewFactorOptions {
+        by: Grouping::Group,
+        enclosure: if c.encl {
+            Enclosure::Closed
+        } else {
+            Enclosure::Raw
+        },
+        script_f: c.emit,
+        ..ViewFactorOptions::for_scene(&file.scene)
+    }
+}
+
+#[test]
+fn view3d_files_parallel_plates() {
+    let file = vs3(PARALLEL_VS3).unwrap();
+    let c = file.view3d.as_ref().unwrap();
+    assert_eq!(
+        c.title,
+        "two parallel unit squares 1 apart (View3D's ParallelPlanes)"
+    );
+    assert_eq!(c.ignored, ["list=1", "row=0", "col=0"]);
+    let vf = view_factors(&file.scene, &hemi(), &vs3_options(&file), &|_| {}).unwrap();
+    assert_eq!(vf.names, ["bottom", "top"]);
+    let f = vf.matrix.get(0, 1);
+    assert!((f - parallel_rectangles(1.0, 1.0)).abs() < 1e-3, "{f}");
+    assert!((vf.emissivity[0] - 0.9).abs() < 1e-12);
+}
+
+/// The unit cube as View3D surfaces: its top in two halves combined into one (cmb), a
+/// small obstruction plate floating inside (O), encl=1 and emit=1.
+const CUBE_VS3: &str = "T cube with a split top, an obstruction and encl=1
+C encl=1 emit=1 eps=1e-4
+F 3
+V 1 0 0 0
+V 2 1 0 0
+V 3 1 1 0
+V 4 0 1 0
+V 5 0 0 1
+V 6 1 0 1
+V 7 1 1 1
+V 8 0 1 1
+V 9 0.5 0 1
+V 10 0.5 1 1
+V 11 0.4 0.4 0.5
+V 12 0.6 0.4 0.5
+V 13 0.6 0.6 0.5
+V 14 0.4 0.6 0.5
+S 1 1 2 3 4 0 0 0.9 floor
+S 2 1 5 6 2 0 0 0.8 south
+S 3 2 6 7 3 0 0 0.7 east
+S 4 3 7 8 4 0 0 0.6 north
+S 5 4 8 5 1 0 0 0.5 west
+S 6 5 8 10 9 0 0 0.4 roof
+S 7 9 10 7 6 0 6 0.4 roof_b
+O 8 11 14 13 12
+End of data
+";
+
+#[test]
+fn view3d_files_with_combining_obstructions_and_an_enclosure() {
+    let file = vs3(CUBE_VS3).unwrap();
+    let c = file.view3d.as_ref().unwrap();
+    assert!(c.encl && c.emit);
+    let mut opts = vs3_options(&file);
+    opts.script_f = false;
+    let vf = view_factors(&file.scene, &hemi(), &opts, &|_| {}).unwrap();
+    // Six surfaces: the two roof halves are one, the obstruction none.
+    assert_eq!(
+        vf.names,
+        ["floor", "south", "east", "north", "west", "roof"]
+    );
+    assert!((vf.matrix.area[5] - 1.0).abs() < 1e-9);
+    let m = &vf.matrix;
+    for i in 0..6 {
+        assert!(
+            (m.row_sum(i) - 1.0).abs() < 1e-9,
+            "row {i}: {}",
+            m.row_sum(i)
+        );
+        for &(j, f) in &m.rows[i] {
+            let (a, b) = (m.area[i] * f, m.area[j as usize] * m.get(j as usize, i));
+            assert!((a - b).abs() <= 1e-9 * a.max(b));
+        }
+    }
+    // The floor sees the obstruction's 0.04 m² plate from below: less of the roof
+    // than the unobstructed 0.19982 before closing...
+    assert!(vf.obstructed[0] > 0.01, "{}", vf.obstructed[0]);
+    assert!(vf.report.raw.row_sum.max > 0.01);
+    // ...and script-F (emit=1): rows sum to the emissivities, A 𝓕 symmetric.
+    let sf = view_factors(&file.scene, &hemi(), &vs3_options(&file), &|_| {}).unwrap();
+    assert!(sf.script_f);
+    let e = [0.9, 0.8, 0.7, 0.6, 0.5, 0.4];
+    for i in 0..6 {
+        assert!(
+            (sf.matrix.row_sum(i) - e[i]).abs() < 1e-9,
+            "row {i}: {}",
+            sf.matrix.row_sum(i)
+        );
+        for j in 0..6 {
+            let (a, b) = (sf.matrix.get(i, j), sf.matrix.get(j, i));
+            assert!((a - b).abs() < 1e-9, "({i}, {j})");
+        }
+    }
+}
+
+#[test]
+fn bad_view3d_files_are_refused_by_line() {
+    let lines: Vec<&str> = PARALLEL_VS3.lines().collect();
+    let with = |k: usize, new: &str| {
+        let mut l = lines.clone();
+        l[k] = new;
+        l.join("\n") + "\n"
+    };
+    let cases = [
+        (
+            with(14, "S   2    8   7   6   9   0   0  0.90  top"),
+            "case.vs3:15: vertex 9 is out of range",
+        ),
+        (
+            with(14, "Q   2    8   7   6   5   0   0  0.90  top"),
+            "case.vs3:15: unknown record \"Q\"",
+        ),
+        (with(15, "! no end"), "no \"End of data\""),
+        (
+            with(14, "S   2    8   7   6   5   1   0  0.90  top"),
+            "subsurfaces are not supported",
+        ),
+        (
+            with(1, "C  encl=1 speed=3"),
+            "case.vs3:2: unknown control option \"speed\"",
+        ),
+        (
+            with(9, "V   6   1.00  0.00  1.30"),
+            "top (surface 2, line 15)\") is not planar",
+        ),
+        (
+            with(9, "V   6   0.40  0.60  1.00"),
+            "top (surface 2, line 15)\") is not convex",
+        ),
+        (with(6, "V   4   0.00  1.00"), "case.vs3:7: too few fields"),
+        (
+            with(6, "V   5   0.00  1.00  0.00"),
+            "case.vs3:7: vertex 5 out of sequence",
+        ),
+    ];
+    for (text, says) in cases {
+        let err = vs3(&text).map(|_| ()).unwrap_err();
+        assert!(err.contains(says), "{err}\n  wanted: {says}");
+    }
 }
