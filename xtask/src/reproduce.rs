@@ -4,7 +4,7 @@ use anyhow::{Context, Result};
 use rad_geometry::file::{scene_desc_to_json, scene_desc_to_json_indexed};
 use rad_geometry::scenes::{
     blob_room, cornell_box, cube, loft, loft_fine_triangles, loft_patches, loft_triangles,
-    CORNELL_PATCH_MM,
+    urban_canyon, CORNELL_PATCH_MM,
 };
 use rad_geometry::Scene;
 use rad_pipeline::output::write_atomic;
@@ -55,6 +55,7 @@ pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Resul
     write("loft_speedup.json", r.loft_speedup_json(&provenance))?;
     write("radiosity.json", r.radiosity_json(&provenance))?;
     write("scaling.json", r.scaling_json(&provenance))?;
+    write("viewfactors.json", r.viewfactors_json(&provenance))?;
     let plot = crate::plot::scaling_png(&r.scaling)?;
     let path = out.join("scaling.png");
     write_atomic(&path, |w| w.write_all(&plot))
@@ -95,6 +96,7 @@ pub fn write_scenes(out: &Path) -> Result<()> {
         ("loft_patches.json", loft_patches(), "Our loft with every patch its own polygon: 14,400 one-patch polygons (rad_geometry::scenes::loft_patches)."),
         ("loft_triangles.json", loft_triangles(), "Our loft with every patch cut into two triangles: 28,800 one-patch triangles (rad_geometry::scenes::loft_triangles)."),
         ("loft_fine.json", loft_fine_triangles(), "Our loft with every patch cut 2 x 2, each quarter into two triangles: 115,200 one-patch triangles (rad_geometry::scenes::loft_fine_triangles)."),
+        ("canyon.json", urban_canyon(), "An urban street canyon: two rows of six 12 x 12 x 25 m buildings either side of a 12 m street, every wall, roof and the ground cut into 1 m facets, one patch each, each building face a group: 20,536 facets (rad_geometry::scenes::urban_canyon)."),
         ("blob_room.json", blob_room(), "A star-shaped blob of 20,480 triangles (a displaced icosphere) in a closed 4 x 3 x 4 m room with a ceiling lamp (rad_geometry::scenes::blob_room)."),
     ];
     let all = scenes

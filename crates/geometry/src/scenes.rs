@@ -1,12 +1,15 @@
 //! Deterministic builders of the bench scenes: the report's empty cube, our loft-like
 //! interior (the report never published its loft), the Cornell box, and the mesh
-//! scenes (the loft tessellated at three levels, a curved mesh in a room).
+//! scenes (the loft tessellated at three levels, a curved mesh in a room), and an urban
+//! canyon of 20,536 facets for view factors at scale.
 
+mod canyon;
 mod cornell;
 mod cube;
 mod loft;
 mod meshes;
 
+pub use canyon::{urban_canyon, CANYON_FACETS};
 pub use cornell::{cornell_box, CORNELL_PATCH_MM};
 pub use cube::{cube, CUBE_FACES};
 pub use meshes::{blob_room, loft_fine_triangles, loft_patches, loft_triangles, BLOB_ROOM};

@@ -150,7 +150,14 @@ struct Gather<'a> {
     scene: &'a Scene,
     by: Grouping,
     surface: &'a [u32],
+    /// Surface rows of a grouping whose surfaces are not contiguous in patch order.
     rows: Vec<HashMap<u32, f64>>,
+    /// Where every surface's patches are contiguous: the surface being summed, its
+    /// sums (dense, with the columns touched), and the finished rows.
+    current: Option<usize>,
+    dense: Vec<f64>,
+    touched: Vec<u32>,
+    done_rows: Vec<Vec<(u32, f64)>>,
     patch_rows: Vec<Vec<(u32, f64)>>,
     escaped: Vec<f64>,
     back: Vec<f64>,
@@ -169,15 +176,49 @@ impl Gather<'_> {
             return;
         }
         let a = self.scene.patches()[row.patch as usize].area;
-        let acc = &mut self.rows[s];
-        for &(j, f) in &row.entries {
-            match self.surface[j as usize] {
-                NO_SURFACE => self.obstructed[s] += a * f,
-                t => *acc.entry(t).or_insert(0.0) += a * f,
+        if !self.done_rows.is_empty() {
+            // Contiguous surfaces: a dense accumulator, the row flushed when it ends.
+            if self.current != Some(s) {
+                self.flush();
+                self.current = Some(s);
+            }
+            for &(j, f) in &row.entries {
+                match self.surface[j as usize] {
+                    NO_SURFACE => self.obstructed[s] += a * f,
+                    t => {
+                        let v = &mut self.dense[t as usize];
+                        if *v == 0.0 {
+                            self.touched.push(t);
+                        }
+                        *v += a * f;
+                    }
+                }
+            }
+        } else {
+            let acc = &mut self.rows[s];
+            for &(j, f) in &row.entries {
+                match self.surface[j as usize] {
+                    NO_SURFACE => self.obstructed[s] += a * f,
+                    t => *acc.entry(t).or_insert(0.0) += a * f,
+                }
             }
         }
         self.escaped[s] += a * row.escaped;
         self.back[s] += a * row.back;
+    }
+
+    /// Finishes the current surface's row (contiguous surfaces): its sums, sorted by
+    /// column (divided by the area later, as the other path's).
+    fn flush(&mut self) {
+        let Some(s) = self.current.take() else { return };
+        self.touched.sort_unstable();
+        let row = self
+            .touched
+            .iter()
+            .map(|&t| (t, std::mem::take(&mut self.dense[t as usize])))
+            .collect();
+        self.touched.clear();
+        self.done_rows[s] = row;
     }
 }
 
@@ -370,14 +411,33 @@ pub fn view_factors(
     for s in 0..n {
         emissivity[s] /= area[s];
     }
+    // Each surface's patches one run in patch order (by polygon always; by group when
+    // groups are contiguous, as a View3D file's are)?
+    let contiguous = opts.by != Grouping::Patch && n > 0 && {
+        let mut seen = vec![false; n];
+        let mut last = NO_SURFACE;
+        surface.iter().filter(|&&s| s != NO_SURFACE).all(|&s| {
+            let fresh = s == last || !std::mem::replace(&mut seen[s as usize], true);
+            last = s;
+            fresh
+        })
+    };
     let mut gather = Gather {
         scene,
         by: opts.by,
         surface: &surface,
-        rows: if opts.by == Grouping::Patch {
+        rows: if opts.by == Grouping::Patch || contiguous {
             Vec::new()
         } else {
             vec![HashMap::new(); n]
+        },
+        current: None,
+        dense: if contiguous { vec![0.0; n] } else { Vec::new() },
+        touched: Vec::new(),
+        done_rows: if contiguous {
+            vec![Vec::new(); n]
+        } else {
+            Vec::new()
         },
         patch_rows: if opts.by == Grouping::Patch {
             vec![Vec::new(); n]
@@ -392,8 +452,15 @@ pub fn view_factors(
         gather.take(r);
         Ok(())
     })?;
+    gather.flush();
     let rows: Vec<Vec<(u32, f64)>> = if opts.by == Grouping::Patch {
         std::mem::take(&mut gather.patch_rows)
+    } else if contiguous {
+        let mut rows = std::mem::take(&mut gather.done_rows);
+        for (s, row) in rows.iter_mut().enumerate() {
+            row.iter_mut().for_each(|e| e.1 /= area[s]);
+        }
+        rows
     } else {
         gather
             .rows
@@ -419,7 +486,7 @@ pub fn view_factors(
     // Rays that met an obstruction or the back of a polygon do not leak (only escaping
     // rays do); `closed` spreads them over the row, as View3D's encl=1 does.
     let blocked: Vec<f64> = (0..n).map(|s| obstructed[s] + back[s]).collect();
-    let (mut matrix, report) = raw.enforce_blocked(opts.enclosure, &blocked)?;
+    let (mut matrix, report) = raw.into_enforced(opts.enclosure, &blocked)?;
     if opts.script_f {
         matrix = matrix.script_f(&emissivity)?;
     }

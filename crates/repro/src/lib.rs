@@ -11,6 +11,7 @@ pub mod reproduce;
 pub mod scaling;
 pub mod speedup;
 pub mod stats;
+pub mod viewfactors;
 
 pub use rad_pipeline::Error;
 

@@ -172,6 +172,30 @@ impl SurfaceMatrix {
         self.enforce_blocked(rule, &[])
     }
 
+    /// [`SurfaceMatrix::enforce_blocked`], taking the matrix: `Raw` returns it as it is,
+    /// without a copy (a surface matrix of a large scene may hold tens of millions of
+    /// entries).
+    pub fn into_enforced(
+        self,
+        rule: Enclosure,
+        blocked: &[f64],
+    ) -> Result<(SurfaceMatrix, EnclosureReport), Error> {
+        if rule != Enclosure::Raw {
+            return self.enforce_blocked(rule, blocked);
+        }
+        self.check()?;
+        let mut m = self;
+        m.rows.iter_mut().for_each(|r| r.retain(|e| e.1 > 0.0));
+        let raw = m.errors();
+        let report = EnclosureReport {
+            raw,
+            fixed: raw,
+            max_change: 0.0,
+            products: 0,
+        };
+        Ok((m, report))
+    }
+
     /// [`SurfaceMatrix::enforce`] where `blocked[I]` of row I's rays met obstructions
     /// (no surface of the matrix): they do not leak, and `Closed` spreads them over the
     /// row as View3D's `encl=1` does. An empty `blocked` is all zeros.

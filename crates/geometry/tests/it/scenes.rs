@@ -123,6 +123,7 @@ fn committed_bench_scene_files_match_their_builders() {
     };
     for (name, built) in [
         ("loft_patches.json", loft_patches()),
+        ("canyon.json", rad_geometry::scenes::urban_canyon()),
         ("loft_triangles.json", loft_triangles()),
         ("loft_fine.json", loft_fine_triangles()),
         ("blob_room.json", blob_room()),
@@ -236,6 +237,34 @@ fn mesh_scenes_are_closed() {
                     );
                 }
             }
+        }
+    }
+}
+
+#[test]
+fn the_canyon_has_its_facets_each_facing_out_of_its_building() {
+    use rad_geometry::scenes::{urban_canyon, CANYON_FACETS};
+    let desc = urban_canyon();
+    let s = Scene::new(desc.clone()).unwrap();
+    assert_eq!(s.polygons().len(), CANYON_FACETS);
+    assert_eq!(s.patches().len(), CANYON_FACETS);
+    let groups: std::collections::HashSet<_> =
+        (0..CANYON_FACETS).map(|k| s.group(k).unwrap()).collect();
+    assert_eq!(groups.len(), 1 + 12 * 5);
+    for (k, poly) in s.polygons().iter().enumerate() {
+        assert!((poly.area() - 1.0).abs() < 1e-6);
+        // Every facet faces the open air: a point 0.5 m in front of it is outside
+        // every building.
+        let c = s.patches()[k].center + poly.normal() * 0.5;
+        assert!(c.y > 0.0);
+        let g = s.group(k).unwrap();
+        if let Some(rest) = g.strip_prefix("building ") {
+            let b: usize = rest.split(' ').next().unwrap().parse().unwrap();
+            let (x0, z0) = (8 + (b % 6) * 18, 8 + (b / 6) * 24);
+            let inside = (x0 as f32..(x0 + 12) as f32).contains(&c.x)
+                && (z0 as f32..(z0 + 12) as f32).contains(&c.z)
+                && c.y < 25.0;
+            assert!(!inside, "facet {k} ({g}) faces into its building");
         }
     }
 }

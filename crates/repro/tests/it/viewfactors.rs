@@ -10,7 +10,7 @@ use rad_pipeline::viewfactors::{
 };
 use rad_pipeline::{Enclosure, Hemisphere, HemisphereConfig};
 use rad_repro::closed_form::{
-    coaxial_discs, obstructed_parallel_squares, parallel_rectangles, perpendicular_rectangles,
+    obstructed_parallel_squares, parallel_rectangles, perpendicular_rectangles,
 };
 
 fn white() -> Vec<Material> {
@@ -63,43 +63,6 @@ fn parallel() -> Scene {
     ])
 }
 
-fn perpendicular() -> Scene {
-    let wall = vec![Vec3::ZERO, Vec3::Y, Vec3::new(0.0, 1.0, 1.0), Vec3::Z];
-    scene(vec![
-        poly("floor", square(0.0, true), GRID, None),
-        poly("wall", wall, GRID, None),
-    ])
-}
-
-fn discs(grid: PatchGrid) -> Scene {
-    let disc = |z: f32, up: bool| {
-        let mut v: Vec<Vec3> = (0..96)
-            .map(|k| {
-                let a = std::f32::consts::TAU * k as f32 / 96.0;
-                Vec3::new(a.cos(), a.sin(), z)
-            })
-            .collect();
-        if !up {
-            v.reverse();
-        }
-        v
-    };
-    scene(vec![
-        poly("a", disc(0.0, true), grid, None),
-        poly("b", disc(1.0, false), grid, None),
-    ])
-}
-
-fn obstructed() -> Scene {
-    let mut o = square(0.5, false);
-    o.iter_mut().for_each(|p| p.x += 0.5);
-    scene(vec![
-        poly("bottom", square(0.0, true), GRID, None),
-        poly("top", square(1.0, false), GRID, None),
-        poly("obstruction", o, GRID, None),
-    ])
-}
-
 fn hemi() -> Hemisphere {
     Hemisphere::new(HemisphereConfig::exact(180, 720)).unwrap()
 }
@@ -114,74 +77,31 @@ fn run(scene: &Scene, origins: u32, enclosure: Enclosure, by: Grouping) -> ViewF
     view_factors(scene, &hemi(), &opts, &|_| {}).unwrap()
 }
 
-/// The 96-gon's own F against the disc's: a regular 96-gon inscribed in the unit
-/// circle has 0.99929 of its area; discs of that area (radius 0.99964) give 0.38184,
-/// 1.2e-4 below the unit discs' 0.38197. Half way between bounds the polygon's value.
-fn polygon_disc_reference() -> (f64, f64) {
-    let r_eq = (96.0 * (std::f64::consts::TAU / 96.0).sin() / (2.0 * std::f64::consts::PI)).sqrt();
-    (coaxial_discs(r_eq, r_eq, 1.0), coaxial_discs(1.0, 1.0, 1.0))
-}
-
 #[test]
 fn closed_forms_within_1e3_at_the_defaults_and_closer_with_more_origins() {
-    let (disc_lo, disc_hi) = polygon_disc_reference();
-    let cases: Vec<(&str, Scene, usize, usize, f64)> = vec![
-        (
-            "parallel squares (C-11)",
-            parallel(),
-            0,
-            1,
-            parallel_rectangles(1.0, 1.0),
-        ),
-        (
-            "perpendicular squares (C-14)",
-            perpendicular(),
-            0,
-            1,
-            perpendicular_rectangles(1.0, 1.0),
-        ),
-        (
-            "coaxial discs (C-41), patches",
-            discs(GRID),
-            0,
-            1,
-            0.5 * (disc_lo + disc_hi),
-        ),
-        (
-            "coaxial discs (C-41), patch_size",
-            discs(PatchGrid::Size(0.2)),
-            0,
-            1,
-            0.5 * (disc_lo + disc_hi),
-        ),
-        (
-            "obstructed parallel squares",
-            obstructed(),
-            0,
-            1,
-            obstructed_parallel_squares(0.5),
-        ),
-    ];
-    for (name, scene, i, j, want) in &cases {
-        let slack = if name.contains("discs") {
-            0.5 * (disc_hi - disc_lo)
-        } else {
-            0.0
-        };
+    for case in rad_repro::viewfactors::closed_form_cases() {
+        let scene = Scene::new(case.scene).unwrap();
         let mut errors = Vec::new();
         for origins in [1, DEFAULT_ORIGINS, 4] {
-            let vf = run(scene, origins, Enclosure::Raw, Grouping::Polygon);
-            let got = vf.matrix.get(*i, *j);
-            let err = ((got - want).abs() - slack).max(0.0);
+            let vf = run(&scene, origins, Enclosure::Raw, Grouping::Polygon);
+            let got = vf.matrix.get(case.from, case.to);
+            let err = ((got - case.reference).abs() - case.slack).max(0.0);
             errors.push((origins, got, err));
         }
+        let name = case.name;
         let at_default = errors.iter().find(|e| e.0 == DEFAULT_ORIGINS).unwrap();
-        assert!(at_default.2 < 1e-3, "{name}: {errors:?} against {want}");
+        assert!(
+            at_default.2 < 1e-3,
+            "{name}: {errors:?} against {}",
+            case.reference
+        );
         // More origins, smaller error (the point-to-area error falls; what is left is
         // the hemisphere's).
         let (one, four) = (errors[0].2, errors[2].2);
-        assert!(four <= one, "{name}: {errors:?} against {want}");
+        assert!(four <= one, "{name}: {errors:?} against {}", case.reference);
     }
+    // The obstructed pair's reference is half the unobstructed one, by symmetry.
+    assert!((obstructed_parallel_squares(0.5) - 0.5 * parallel_rectangles(1.0, 1.0)).abs() < 1e-9);
 }
 
 #[test]
