@@ -567,6 +567,12 @@ fn viewfactors(
             opts.origins
         ));
     }
+    if opts.script_f && n_surfaces > rad_pipeline::viewfactors::MAX_SCRIPT_F {
+        return Err(format!(
+            "--script-f solves a dense system of the surfaces: {n_surfaces} is over the limit of {} (use --by group, or fewer surfaces)",
+            rad_pipeline::viewfactors::MAX_SCRIPT_F
+        ));
+    }
     if format == MatrixFormat::Bin && out.is_none() {
         return Err("--format bin writes a binary file: give --out FILE.bin".into());
     }
@@ -596,8 +602,8 @@ fn viewfactors(
         resolution: (hemi.n_theta() as u32, hemi.n_phi() as u32),
     };
     let progress = |n: usize| bar.set_position(n as u64);
-    if let (MatrixFormat::Bin, Grouping::Patch, Enclosure::Raw, Some(path)) =
-        (format, opts.by, opts.enclosure, out)
+    if let (MatrixFormat::Bin, Grouping::Patch, Enclosure::Raw, false, Some(path)) =
+        (format, opts.by, opts.enclosure, opts.script_f, out)
     {
         // Patch to patch, raw: written as the rows are made, never held.
         let mut done = None;

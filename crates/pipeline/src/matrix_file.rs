@@ -149,13 +149,22 @@ pub fn read_matrix_file(bytes: &[u8], what: &std::path::Path) -> Result<MatrixFi
             end
         )));
     }
-    let metadata = serde_json::from_slice(&bytes[HEADER..areas_at as usize])
+    let metadata: serde_json::Value = serde_json::from_slice(&bytes[HEADER..areas_at as usize])
         .map_err(|e| bad(format!("bad metadata: {e}")))?;
-    let areas = bytes[areas_at as usize..entries_at as usize]
+    if let Some(names) = metadata.get("names").and_then(|n| n.as_array()) {
+        if names.len() as u64 != n_rows {
+            return Err(bad(format!("{} names for {n_rows} rows", names.len())));
+        }
+    }
+    let areas: Vec<f64> = bytes[areas_at as usize..entries_at as usize]
         .chunks_exact(8)
         .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
         .collect();
+    if let Some(k) = areas.iter().position(|a| !(a.is_finite() && *a > 0.0)) {
+        return Err(bad(format!("area {k} is {}, not finite and > 0", areas[k])));
+    }
     let mut entries = Vec::with_capacity(nnz as usize);
+    let mut last: Option<(u32, u32)> = None;
     for c in bytes[entries_at as usize..tail].chunks_exact(ENTRY) {
         let i = u32::from_le_bytes(c[0..4].try_into().expect("4 bytes"));
         let j = u32::from_le_bytes(c[4..8].try_into().expect("4 bytes"));
@@ -165,6 +174,12 @@ pub fn read_matrix_file(bytes: &[u8], what: &std::path::Path) -> Result<MatrixFi
                 "entry ({i}, {j}, {f}) is out of range or not finite"
             )));
         }
+        if last.is_some_and(|l| l >= (i, j)) {
+            return Err(bad(format!(
+                "entry ({i}, {j}) is out of order (rows in order, columns increasing)"
+            )));
+        }
+        last = Some((i, j));
         entries.push((i, j, f));
     }
     Ok(MatrixFile {

@@ -32,6 +32,17 @@ pub fn write_atomic(
         name.to_string_lossy(),
         std::process::id()
     ));
+    // Removes the temporary file however this ends (an error, or a panic unwinding
+    // through `fill`), unless it was renamed into place.
+    struct Guard<'p>(&'p Path, bool);
+    impl Drop for Guard<'_> {
+        fn drop(&mut self) {
+            if self.1 {
+                let _ = std::fs::remove_file(self.0);
+            }
+        }
+    }
+    let mut guard = Guard(&tmp, true);
     let result = (|| {
         let file = std::fs::File::create(&tmp)?;
         let mut w = BufWriter::new(file);
@@ -41,9 +52,9 @@ pub fn write_atomic(
         std::fs::rename(&tmp, path)
     })();
     if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
         return Err(err(e));
     }
+    guard.1 = false;
     Ok(())
 }
 

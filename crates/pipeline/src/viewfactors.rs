@@ -8,6 +8,7 @@ use rad_core::PatchId;
 use rad_geometry::Scene;
 pub use rad_hemisphere::MAX_ORIGINS;
 use rad_hemisphere::{compute_area_rows, Caster, Hemisphere, Row};
+pub use rad_solver::MAX_SCRIPT_F;
 use rad_solver::{Enclosure, EnclosureReport, SurfaceMatrix};
 use std::collections::HashMap;
 use std::io::Write;
@@ -234,7 +235,7 @@ fn patch_row(surface: &[u32], row: &Row) -> (Vec<(u32, f64)>, f64) {
                 blocked += f;
                 None
             }
-            t => Some((t, f)),
+            t => (f > 0.0).then_some((t, f)),
         })
         .collect();
     (seen, blocked)

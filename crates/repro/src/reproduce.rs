@@ -442,7 +442,7 @@ impl Reproduction {
         s
     }
 
-    /// The loft's closure and exact-hemisphere timings.
+    /// The view-factor section: closed forms, the cube, the matrices at scale.
     fn report_viewfactors(&self, w: &mut String) {
         let v = &self.viewfactors;
         let _ = writeln!(
@@ -534,6 +534,7 @@ impl Reproduction {
         }
     }
 
+    /// The loft's closure and exact-hemisphere timings.
     fn report_loft(&self, w: &mut String) {
         let l = &self.loft;
         let _ = writeln!(w, "\n## Loft (ours; the report never published its loft)\n");

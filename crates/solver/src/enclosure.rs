@@ -378,7 +378,7 @@ impl SurfaceMatrix {
                 .max_by(|&a, &b| mt[a * n + k].abs().total_cmp(&mt[b * n + k].abs()))
                 .expect("k < n");
             if !(mt[p * n + k].abs() > 1e-300) {
-                return Err(Error::NoReciprocalScaling { iterations: 0 });
+                return Err(Error::SingularExchange { surface: k as u32 });
             }
             if p != k {
                 for c in 0..n {

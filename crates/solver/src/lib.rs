@@ -76,6 +76,8 @@ pub enum Error {
     },
     #[error("surface {surface} sees nothing (its row is empty) but surface {seen_by} sees it: no reciprocal matrix keeps the empty row; look for a surface facing away from the scene, or use --enclosure raw")]
     SeenButBlind { surface: u32, seen_by: u32 },
+    #[error("the exchange system is singular at surface {surface} (no script-F: is a surface perfectly reflecting, and do the surfaces see each other?)")]
+    SingularExchange { surface: u32 },
     #[error("no reciprocal scaling found after {iterations} iterations (the pattern of the form factors admits no symmetric matrix with these row sums)")]
     NoReciprocalScaling { iterations: usize },
     #[error("solver setting {what} = {value} is invalid ({rule})")]

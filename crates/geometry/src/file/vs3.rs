@@ -74,12 +74,16 @@ pub fn vs3_from_text(
             .filter(|w| !w.is_empty())
             .collect();
         let Some(first) = words.first() else { continue };
+        // The rest of the line after the first word (where it really is: commas
+        // separate words too).
+        let after = first.as_ptr() as usize - body.as_ptr() as usize + first.len();
+        let rest = body[after..].trim();
         let kind = first.chars().next().map(|c| c.to_ascii_uppercase());
         let fields = &words[1..];
         let err = |m: String| (line, m);
         match kind {
-            Some('T') => control.title = body.trim_start()[first.len()..].trim().to_string(),
-            Some('C') => read_control(body.trim_start()[first.len()..].trim(), &mut control).map_err(err)?,
+            Some('T') => control.title = rest.to_string(),
+            Some('C') => read_control(rest, &mut control).map_err(err)?,
             Some('F') => match fields.first().copied() {
                 Some("3") => {}
                 Some(f) if f.eq_ignore_ascii_case("3a") => {

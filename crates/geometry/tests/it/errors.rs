@@ -334,3 +334,27 @@ fn scenes_outside_the_numeric_range_are_refused() {
         "{e}"
     );
 }
+
+#[test]
+fn view3d_text_with_commas_and_non_ascii_words_is_read_not_panicked_on() {
+    use rad_geometry::file::vs3_from_text;
+    let text = ",Tü façade study, v2\nC encl=1,emit=0\nV 1 0 0 0\nV 2 1 0 0\nV 3 0 1 0\nS 1 1 2 3 0 0 0 0.9 tri\nEnd of data\n";
+    let (desc, control) = vs3_from_text(text, None).unwrap();
+    assert_eq!(control.title, "façade study, v2");
+    assert!(control.encl && !control.emit);
+    assert_eq!(desc.polygons.len(), 1);
+    assert_eq!(desc.polygons[0].group.as_deref(), Some("tri"));
+    // Garbage of every kind: an error with a line, never a panic.
+    for bad in [
+        "ü",
+        ",",
+        "S",
+        "S 1 1 2 3",
+        "V 1 a b c",
+        "C =",
+        "F",
+        "O 1 1 2 3 0\nEnd of data",
+    ] {
+        assert!(vs3_from_text(bad, None).is_err(), "{bad:?}");
+    }
+}
