@@ -568,6 +568,10 @@ fn view_factors_of_the_cube() {
 
     for (args, says) in [
         (vec!["--origins", "0"], "--origins 0 is invalid"),
+        (
+            vec!["--origins", "257"],
+            "--origins 257 is invalid: give 1 to 256",
+        ),
         (vec!["--by", "group"], "belongs to no group"),
         (
             vec!["--by", "patch", "--format", "csv"],
