@@ -3,7 +3,7 @@
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use rad_pipeline::images::render_to_files;
+use rad_pipeline::images::{radiance_of, render_to_files};
 use rad_pipeline::output::{
     write_atomic, write_patches_json, write_row_json, write_rows_footer, write_rows_header,
 };
@@ -13,7 +13,7 @@ use rad_pipeline::viewfactors::{
     MatrixFormat, ViewFactorOptions, ViewFactorRun,
 };
 use rad_pipeline::{
-    parse_patch_list, parse_resolution, CasterKind, Enclosure, EstimateStats, Hemisphere,
+    parse_patch_list, parse_resolution, Camera, CasterKind, Enclosure, EstimateStats, Hemisphere,
     HemisphereConfig, Mode, Progress, RenderConfig, RowMethod, SceneFile, Shading, Solver, Storage,
     View,
 };
@@ -137,31 +137,51 @@ enum Command {
         out: PathBuf,
     },
     /// An image of a solution from the scene's camera: 32-bit float EXR, optional PNG preview.
-    Render {
-        scene: PathBuf,
-        /// A solution file written by `coherad solve` for this scene.
-        #[arg(long)]
-        solution: PathBuf,
-        /// The EXR image (linear RGB radiosity).
-        #[arg(long)]
-        out: PathBuf,
-        /// Also a tone-mapped sRGB PNG preview here.
-        #[arg(long)]
-        png: Option<PathBuf>,
-        #[arg(long, default_value_t = 640)]
-        width: u32,
-        #[arg(long, default_value_t = 480)]
-        height: u32,
-        /// SAMPLES x SAMPLES rays a pixel.
-        #[arg(long, default_value_t = 2)]
-        samples: u32,
-        /// flat: each patch's own value; smooth: interpolated from patch corners.
-        #[arg(long, value_enum, default_value_t = ShadingKind::Smooth)]
-        shading: ShadingKind,
-        /// PNG exposure (multiplier before tone mapping); default: the 95th percentile of lit pixels maps to 0.8.
-        #[arg(long)]
-        exposure: Option<f32>,
-    },
+    Render(RenderArgs),
+}
+
+/// `coherad render`'s flags.
+#[derive(clap::Args)]
+struct RenderArgs {
+    scene: PathBuf,
+    /// A solution file written by `coherad solve` for this scene.
+    #[arg(long)]
+    solution: PathBuf,
+    /// The EXR image (linear RGB radiosity, or radiance with --radiance).
+    #[arg(long)]
+    out: PathBuf,
+    /// Camera position X,Y,Z: with --look-at, the camera of a scene that has none
+    /// (an OBJ file), or to override the scene's; alone, it moves the scene's camera.
+    #[arg(long)]
+    eye: Option<String>,
+    /// The point the camera looks at, X,Y,Z.
+    #[arg(long)]
+    look_at: Option<String>,
+    /// The camera's up direction X,Y,Z (default: the scene camera's, else 0,1,0).
+    #[arg(long)]
+    up: Option<String>,
+    /// Vertical field of view, degrees (default: the scene camera's, else 50).
+    #[arg(long)]
+    fov: Option<f32>,
+    /// Write radiance B / pi (what a path tracer or a viewer shows) instead of radiosity B.
+    #[arg(long)]
+    radiance: bool,
+    /// Also a tone-mapped sRGB PNG preview here.
+    #[arg(long)]
+    png: Option<PathBuf>,
+    #[arg(long, default_value_t = 640)]
+    width: u32,
+    #[arg(long, default_value_t = 480)]
+    height: u32,
+    /// SAMPLES x SAMPLES rays a pixel.
+    #[arg(long, default_value_t = 2)]
+    samples: u32,
+    /// flat: each patch's own value; smooth: interpolated from patch corners.
+    #[arg(long, value_enum, default_value_t = ShadingKind::Smooth)]
+    shading: ShadingKind,
+    /// PNG exposure (multiplier before tone mapping); default: the 95th percentile of lit pixels maps to 0.8.
+    #[arg(long)]
+    exposure: Option<f32>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -372,46 +392,7 @@ fn run(cli: &Cli) -> Result<(), String> {
             };
             solve(&scene, resolution, method, &how, out)
         }
-        Command::Render {
-            scene,
-            solution,
-            out,
-            png,
-            width,
-            height,
-            samples,
-            shading,
-            exposure,
-        } => {
-            if let Some(x) = exposure {
-                if png.is_none() {
-                    return Err("--exposure sets the PNG preview's exposure: give --png too".into());
-                }
-                if !(x.is_finite() && *x > 0.0) {
-                    return Err(format!("--exposure must be finite and > 0, not {x}"));
-                }
-            }
-            let scene = load(scene)?;
-            let b = read_solution(solution, &scene).map_err(|e| e.to_string())?;
-            let view = View::of_scene(&scene.scene, *width, *height).map_err(|e| e.to_string())?;
-            let config = RenderConfig {
-                samples: *samples,
-                shading: match shading {
-                    ShadingKind::Flat => Shading::Flat,
-                    ShadingKind::Smooth => Shading::Smooth,
-                },
-            };
-            render_to_files(
-                &scene.scene,
-                &b,
-                &view,
-                &config,
-                out,
-                png.as_deref(),
-                *exposure,
-            )
-            .map_err(|e| e.to_string())
-        }
+        Command::Render(args) => render(&load(&args.scene)?, args),
     }
 }
 
@@ -657,6 +638,123 @@ fn viewfactors(
         r.max_change
     );
     emit(out, |w| write_view_factors(w, &vf, &run, format))
+}
+
+/// `coherad render`: the solution's image from the scene's camera or the flags'.
+fn render(scene: &SceneFile, args: &RenderArgs) -> Result<(), String> {
+    let RenderArgs {
+        scene: _,
+        solution,
+        out,
+        eye,
+        look_at,
+        up,
+        fov,
+        radiance,
+        png,
+        width,
+        height,
+        samples,
+        shading,
+        exposure,
+    } = args;
+    if let Some(x) = exposure {
+        if png.is_none() {
+            return Err("--exposure sets the PNG preview's exposure: give --png too".into());
+        }
+        if !(x.is_finite() && *x > 0.0) {
+            return Err(format!("--exposure must be finite and > 0, not {x}"));
+        }
+    }
+    let flags = CameraFlags {
+        eye: eye.as_deref(),
+        look_at: look_at.as_deref(),
+        up: up.as_deref(),
+        fov: *fov,
+    };
+    let camera = camera(&scene, &flags)?;
+    let view = View::new(&camera, *width, *height).map_err(|e| e.to_string())?;
+    let mut b = read_solution(solution, &scene).map_err(|e| e.to_string())?;
+    if *radiance {
+        b = radiance_of(&b);
+    }
+    let config = RenderConfig {
+        samples: *samples,
+        shading: match shading {
+            ShadingKind::Flat => Shading::Flat,
+            ShadingKind::Smooth => Shading::Smooth,
+        },
+    };
+    render_to_files(
+        &scene.scene,
+        &b,
+        &view,
+        &config,
+        out,
+        png.as_deref(),
+        *exposure,
+    )
+    .map_err(|e| e.to_string())
+}
+
+/// `coherad render`'s camera flags.
+struct CameraFlags<'a> {
+    eye: Option<&'a str>,
+    look_at: Option<&'a str>,
+    up: Option<&'a str>,
+    fov: Option<f32>,
+}
+
+/// A vector from "X,Y,Z".
+fn parse_vec3(flag: &str, text: &str) -> Result<[f32; 3], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let values: Option<Vec<f32>> = parts
+        .iter()
+        .map(|p| p.parse::<f32>().ok().filter(|v| v.is_finite()))
+        .collect();
+    match values {
+        Some(v) if v.len() == 3 => Ok([v[0], v[1], v[2]]),
+        _ => Err(format!("{flag} {text:?}: give three finite numbers X,Y,Z")),
+    }
+}
+
+/// The camera of a render: the scene's, with whatever the flags override; a scene
+/// without one needs --eye and --look-at.
+fn camera(scene: &SceneFile, f: &CameraFlags) -> Result<Camera, String> {
+    let own = scene.scene.camera().copied();
+    let given = |flag, t: Option<&str>| t.map(|t| parse_vec3(flag, t)).transpose();
+    let eye = given("--eye", f.eye)?;
+    let look_at = given("--look-at", f.look_at)?;
+    let up = given("--up", f.up)?;
+    let v = |a: [f32; 3]| rad_pipeline::Vec3::from_array(a);
+    let (position, target) = match (own, eye, look_at) {
+        (_, Some(e), Some(l)) => (v(e), v(l)),
+        (Some(c), e, l) => (e.map_or(c.position, v), l.map_or(c.look_at, v)),
+        (None, _, _) => {
+            return Err(format!(
+            "{} has no camera: give --eye X,Y,Z and --look-at X,Y,Z (and --up, --fov if need be)",
+            scene.path.display()
+        ))
+        }
+    };
+    if let Some(x) = f.fov {
+        if !(x.is_finite() && x > 0.0 && x < 180.0) {
+            return Err(format!("--fov {x}: give degrees in (0, 180)"));
+        }
+    }
+    Ok(Camera {
+        position,
+        look_at: target,
+        up: up
+            .map(v)
+            .or(own.map(|c| c.up))
+            .unwrap_or(rad_pipeline::Vec3::Y),
+        fov_y: f
+            .fov
+            .map(f32::to_radians)
+            .or(own.map(|c| c.fov_y))
+            .unwrap_or(50f32.to_radians()),
+    })
 }
 
 /// How `coherad solve` solves, from its flags.

@@ -176,6 +176,14 @@ pub fn render_to_files(
     Ok(())
 }
 
+/// Radiance B / π of radiosities `b` (Lambertian surfaces: what a path tracer, or a
+/// viewer of baked colours, shows), for `coherad render --radiance`.
+pub fn radiance_of(b: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    b.iter()
+        .map(|p| p.map(|c| c / std::f64::consts::PI))
+        .collect()
+}
+
 /// The image of the radiosities `b` of `scene` from `view`, its rays through the wide
 /// BVH ([`rad_accel::WideBvh`]), which gives the voxel grid's hits to the bit and is
 /// the fastest of the casters on every bench scene (see `cargo bench -p rad-pipeline

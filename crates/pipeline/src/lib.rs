@@ -17,8 +17,10 @@ pub mod viewfactors;
 pub use method::{CasterKind, RowMethod};
 // The vocabulary the front ends need, so that they see the libraries only through
 // the pipeline.
+pub use glam::Vec3;
 pub use parse::{parse_patch_list, parse_resolution};
 pub use rad_estimator::{EstimateStats, Mode};
+pub use rad_geometry::Camera;
 pub use rad_hemisphere::{Hemisphere, HemisphereConfig};
 pub use rad_render::{RenderConfig, Shading, View};
 pub use rad_solver::{Enclosure, SolveConfig, Solver};

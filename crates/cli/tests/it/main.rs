@@ -618,3 +618,109 @@ fn view_factors_of_the_cube() {
     assert_eq!(u64::from_le_bytes(bytes[16..24].try_into().unwrap()), 600);
     assert_eq!(&bytes[bytes.len() - 16..bytes.len() - 8], b"COHERADE");
 }
+
+/// The pixels of a 64-pixel-wide EXR file (RGB, row by row).
+fn exr_pixels(path: &Path) -> Vec<[f32; 3]> {
+    use exr::prelude::*;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |resolution, _| vec![[0.0f32; 3]; resolution.width() * resolution.height()],
+        |pixels: &mut Vec<[f32; 3]>, position, (r, g, b, _a): (f32, f32, f32, f32)| {
+            pixels[position.y() * 64 + position.x()] = [r, g, b]; // 64 pixels a row
+        },
+    )
+    .unwrap();
+    image.layer_data.channel_data.pixels
+}
+
+/// An OBJ scene has no camera: `render` takes one from flags, and `--radiance` writes
+/// B / pi.
+#[test]
+fn render_an_obj_scene_with_camera_flags_and_radiance() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("box.obj");
+    std::fs::write(
+        dir.path().join("box.mtl"),
+        "newmtl white\nKd 0.5 0.5 0.5\nnewmtl lamp\nKd 0.5 0.5 0.5\nKe 5 5 5\n",
+    )
+    .unwrap();
+    std::fs::write(
+        &obj,
+        "mtllib box.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+         usemtl white\nf 1 5 6 2\nf 1 4 8 5\nf 2 6 7 3\nf 1 2 3 4\nf 5 8 7 6\nusemtl lamp\nf 4 3 7 8\n",
+    )
+    .unwrap();
+    let (o, sol) = (obj.to_str().unwrap(), dir.path().join("box.solution.json"));
+    let solved = coherad(&[
+        "solve",
+        o,
+        "--patch-size",
+        "0.25",
+        "--resolution",
+        "20x80",
+        "--out",
+        sol.to_str().unwrap(),
+    ]);
+    assert!(
+        solved.status.success(),
+        "{}",
+        String::from_utf8_lossy(&solved.stderr)
+    );
+    let render = |extra: &[&str], out: &Path| {
+        let mut args = vec![
+            "render",
+            o,
+            "--patch-size",
+            "0.25",
+            "--solution",
+            sol.to_str().unwrap(),
+            "--width",
+            "64",
+            "--height",
+            "64",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        coherad(&args)
+    };
+    let none = dir.path().join("none.exr");
+    let r = render(&[], &none);
+    assert!(!r.status.success() && !none.exists());
+    assert!(String::from_utf8_lossy(&r.stderr)
+        .contains("has no camera: give --eye X,Y,Z and --look-at X,Y,Z"));
+    let bad = render(&["--eye", "0.5,0.5", "--look-at", "0.5,0.5,1"], &none);
+    assert!(String::from_utf8_lossy(&bad.stderr)
+        .contains("--eye \"0.5,0.5\": give three finite numbers"));
+    let cam = [
+        "--eye",
+        "0.5,0.5,0.05",
+        "--look-at",
+        "0.5,0.5,1",
+        "--fov",
+        "80",
+    ];
+    let (b_path, l_path) = (dir.path().join("b.exr"), dir.path().join("l.exr"));
+    let r = render(&cam, &b_path);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let mut with = cam.to_vec();
+    with.push("--radiance");
+    assert!(render(&with, &l_path).status.success());
+    let (b, l) = (exr_pixels(&b_path), exr_pixels(&l_path));
+    assert_eq!(b.len(), 64 * 64);
+    let lit = b.iter().filter(|p| p[0] > 0.0).count();
+    assert!(
+        lit > 64 * 60,
+        "{lit} lit pixels: the camera looks into the box"
+    );
+    for (p, q) in b.iter().zip(&l) {
+        for c in 0..3 {
+            let want = p[c] / std::f32::consts::PI;
+            assert!(
+                (q[c] - want).abs() <= 1e-6 * p[c].abs().max(1e-30),
+                "{} vs {want}",
+                q[c]
+            );
+        }
+    }
+}
