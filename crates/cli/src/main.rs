@@ -136,7 +136,7 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
-    /// An image of a solution from the scene's camera: 32-bit float EXR, optional PNG preview.
+    /// An image of a solution from the scene's camera or one given by flags: 32-bit float EXR, optional PNG preview.
     Render(RenderArgs),
 }
 
