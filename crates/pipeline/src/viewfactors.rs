@@ -665,19 +665,30 @@ fn csv_field(s: &str) -> String {
     }
 }
 
+/// Each row of `m` as a dense array (zeros where a surface is not seen), in order.
+fn for_each_dense_row(
+    m: &SurfaceMatrix,
+    mut take: impl FnMut(usize, &[f64]) -> std::io::Result<()>,
+) -> std::io::Result<()> {
+    let mut dense = vec![0.0f64; m.n()];
+    for (i, row) in m.rows.iter().enumerate() {
+        dense.iter_mut().for_each(|v| *v = 0.0);
+        for &(j, f) in row {
+            dense[j as usize] = f;
+        }
+        take(i, &dense)?;
+    }
+    Ok(())
+}
+
 fn write_csv(w: &mut dyn Write, vf: &ViewFactors) -> std::io::Result<()> {
     let m = &vf.matrix;
     let header: Vec<String> = vf.names.iter().map(|n| csv_field(n)).collect();
     writeln!(w, ",{}", header.join(","))?;
-    let mut dense = vec![0.0f64; m.n()];
-    for i in 0..m.n() {
-        dense.iter_mut().for_each(|v| *v = 0.0);
-        for &(j, f) in &m.rows[i] {
-            dense[j as usize] = f;
-        }
+    for_each_dense_row(m, |i, dense| {
         let cells: Vec<String> = dense.iter().map(|f| format!("{f:?}")).collect();
-        writeln!(w, "{},{}", csv_field(&vf.names[i]), cells.join(","))?;
-    }
+        writeln!(w, "{},{}", csv_field(&vf.names[i]), cells.join(","))
+    })?;
     Ok(())
 }
 
@@ -724,15 +735,10 @@ fn write_view3d(w: &mut dyn Write, vf: &ViewFactors) -> std::io::Result<()> {
     writeln!(w, "{header:<30}")?;
     let areas: Vec<String> = m.area.iter().map(|a| format!("{}", Float(*a))).collect();
     writeln!(w, "{}", areas.join(" "))?;
-    let mut dense = vec![0.0f64; m.n()];
-    for row in &m.rows {
-        dense.iter_mut().for_each(|v| *v = 0.0);
-        for &(j, f) in row {
-            dense[j as usize] = f;
-        }
+    for_each_dense_row(m, |_, dense| {
         let cells: Vec<String> = dense.iter().map(|f| format!("{f:.6}")).collect();
-        writeln!(w, "{}", cells.join(" "))?;
-    }
+        writeln!(w, "{}", cells.join(" "))
+    })?;
     let emit: Vec<String> = vf.emissivity.iter().map(|e| format!("{e:.3}")).collect();
     writeln!(w, "{}", emit.join(" "))
 }

@@ -281,8 +281,8 @@ fn read_mtx(text: &str) -> (usize, Vec<(usize, usize, f64)>) {
     (size[0], entries)
 }
 
-#[test]
-fn json_csv_and_matrix_market_agree_to_the_bit() {
+/// The cube's face factors, closed, at the defaults, and run facts to write them with.
+fn closed_cube() -> (ViewFactors, ViewFactorRun) {
     let scene = Scene::new(rad_geometry::scenes::cube(10)).unwrap();
     let vf = run(
         &scene,
@@ -295,6 +295,12 @@ fn json_csv_and_matrix_market_agree_to_the_bit() {
         scene_hash: "0".into(),
         resolution: (180, 720),
     };
+    (vf, info)
+}
+
+#[test]
+fn json_csv_and_matrix_market_agree_to_the_bit() {
+    let (vf, info) = closed_cube();
     let write = |format| {
         let mut out = Vec::new();
         write_view_factors(&mut out, &vf, &info, format).unwrap();
@@ -353,18 +359,7 @@ fn json_csv_and_matrix_market_agree_to_the_bit() {
 
 #[test]
 fn view3d_output_is_view3ds_text_format() {
-    let scene = Scene::new(rad_geometry::scenes::cube(10)).unwrap();
-    let vf = run(
-        &scene,
-        DEFAULT_ORIGINS,
-        Enclosure::Closed,
-        Grouping::Polygon,
-    );
-    let info = ViewFactorRun {
-        scene: "cube".into(),
-        scene_hash: "0".into(),
-        resolution: (180, 720),
-    };
+    let (vf, info) = closed_cube();
     let mut out = Vec::new();
     write_view_factors(&mut out, &vf, &info, MatrixFormat::View3d).unwrap();
     let text = String::from_utf8(out).unwrap();
