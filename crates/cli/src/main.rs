@@ -14,8 +14,8 @@ use rad_pipeline::viewfactors::{
 };
 use rad_pipeline::{
     parse_patch_list, parse_resolution, Camera, CasterKind, Enclosure, EstimateStats, Hemisphere,
-    HemisphereConfig, Mode, Progress, RenderConfig, RowMethod, SceneFile, Shading, Solver, Storage,
-    View,
+    HemisphereConfig, LoadOptions, Mode, Progress, RenderConfig, Rgb, RowMethod, SceneFile,
+    Shading, Solver, Storage, View,
 };
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -33,9 +33,22 @@ struct Cli {
     /// Worker threads (default: all cores).
     #[arg(long, global = true)]
     threads: Option<usize>,
-    /// Target patch size for OBJ files (and JSON polygons that give no grid), in scene units.
+    /// Target patch size, in scene units, for mesh files (OBJ, PLY, STL, glTF: required)
+    /// and JSON polygons that give no grid.
     #[arg(long, global = true)]
     patch_size: Option<f64>,
+    /// Split concave and warped faces into triangles (ear clipping) and drop degenerate
+    /// ones, with a count, instead of refusing the file.
+    #[arg(long, global = true)]
+    triangulate: bool,
+    /// Reflectance of faces with no material (PLY, STL; OBJ and glTF faces that name
+    /// none): R or R,G,B, each in [0, 1). Default 0.5.
+    #[arg(long, global = true, value_name = "R[,G,B]")]
+    reflectance: Option<String>,
+    /// A material side file (JSON): materials, emitters among them, and rules giving
+    /// them to faces by number or by a box (see the README).
+    #[arg(long, global = true, value_name = "FILE.json")]
+    materials: Option<PathBuf>,
 }
 
 #[derive(Subcommand)]
@@ -138,6 +151,25 @@ enum Command {
     },
     /// An image of a solution from the scene's camera or one given by flags: 32-bit float EXR, optional PNG preview.
     Render(RenderArgs),
+    /// A scene, and a solution baked into vertex colours, for viewers: glTF 2.0 (.glb, .gltf) or PLY.
+    Export(ExportArgs),
+}
+
+/// `coherad export`'s flags.
+#[derive(clap::Args)]
+struct ExportArgs {
+    scene: PathBuf,
+    /// A solution file written by `coherad solve` for this scene: its radiosity is baked
+    /// into vertex colours (without one, the geometry and materials alone).
+    #[arg(long)]
+    solution: Option<PathBuf>,
+    /// The file to write: .glb (binary glTF), .gltf (glTF, buffer embedded) or .ply.
+    #[arg(long)]
+    out: PathBuf,
+    /// Exposure in stops: the colours are B x 2^EV, clipped to [0, 1]. Default: the 95th
+    /// percentile of the patches' luminance maps to 0.8.
+    #[arg(long, allow_negative_numbers = true, value_name = "EV")]
+    exposure: Option<f64>,
 }
 
 /// `coherad render`'s flags.
@@ -317,8 +349,66 @@ fn emit(
     }
 }
 
+/// Loads a scene file as the global flags say; warns of what `--triangulate` dropped or
+/// split and of what was read with a change.
+fn load_scene_file(cli: &Cli, path: &Path) -> Result<SceneFile, String> {
+    let reflectance = cli
+        .reflectance
+        .as_deref()
+        .map(parse_reflectance)
+        .transpose()?;
+    let options = LoadOptions {
+        patch_size: cli.patch_size,
+        triangulate: cli.triangulate,
+        reflectance,
+        materials: cli.materials.clone(),
+    };
+    let scene = SceneFile::load_with(path, &options).map_err(|e| e.to_string())?;
+    let t = &scene.triangulation;
+    if t.split > 0 {
+        eprintln!(
+            "note: {}: split {} concave or warped faces into {} triangles",
+            path.display(),
+            t.split,
+            t.triangles
+        );
+    }
+    if t.dropped > 0 {
+        eprintln!(
+            "warning: {}: dropped {} degenerate faces or pieces (first: {})",
+            path.display(),
+            t.dropped,
+            t.first_dropped.as_deref().unwrap_or("?")
+        );
+    }
+    for note in &scene.notes {
+        eprintln!("note: {}: {note}", path.display());
+    }
+    Ok(scene)
+}
+
+/// `--reflectance`: R or R,G,B.
+fn parse_reflectance(text: &str) -> Result<Rgb, String> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|c| c.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("--reflectance {text:?}: expected R or R,G,B (numbers)"))?;
+    let rgb = match values[..] {
+        [r] => [r; 3],
+        [r, g, b] => [r, g, b],
+        _ => return Err(format!("--reflectance {text:?}: expected 1 or 3 numbers")),
+    };
+    if !rgb.iter().all(|c| (0.0..1.0).contains(c)) {
+        return Err(format!(
+            "--reflectance {text:?}: each value must be in [0, 1)"
+        ));
+    }
+    Ok(Rgb(rgb))
+}
+
 fn run(cli: &Cli) -> Result<(), String> {
-    let load = |path: &Path| SceneFile::load(path, cli.patch_size).map_err(|e| e.to_string());
+    let load = |path: &Path| load_scene_file(cli, path);
     match &cli.command {
         Command::Patches { scene, out } => {
             let scene = load(scene)?;
@@ -393,7 +483,32 @@ fn run(cli: &Cli) -> Result<(), String> {
             solve(&scene, resolution, method, &how, out)
         }
         Command::Render(args) => render(&load(&args.scene)?, args),
+        Command::Export(args) => export_scene(&load(&args.scene)?, args),
     }
+}
+
+/// `coherad export`: glTF or PLY, with the solution baked in if given.
+fn export_scene(scene: &SceneFile, args: &ExportArgs) -> Result<(), String> {
+    rad_pipeline::export::ExportFormat::of_path(&args.out).map_err(|e| e.to_string())?;
+    let b = match &args.solution {
+        Some(path) => Some(read_solution(path, scene).map_err(|e| e.to_string())?),
+        None => None,
+    };
+    let summary = rad_pipeline::export::export(scene, b.as_deref(), args.exposure, &args.out)
+        .map_err(|e| e.to_string())?;
+    let scale = summary
+        .scale
+        .map(|s| format!(", colours B x {s:.4} (EV {:+.2})", s.log2()))
+        .unwrap_or_default();
+    eprintln!(
+        "wrote {}: {} meshes, {} vertices, {} triangles, {} bytes{scale}",
+        args.out.display(),
+        summary.meshes,
+        summary.vertices,
+        summary.triangles,
+        summary.bytes
+    );
+    Ok(())
 }
 
 /// The hemisphere of a `--resolution`.

@@ -49,7 +49,7 @@ pub enum PolygonProblem {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
-    #[error("polygon {polygon} ({name:?}) {problem}")]
+    #[error("polygon {polygon} ({name:?}) {problem}{hint}", hint = triangulate_hint(.problem))]
     Polygon {
         polygon: usize,
         name: String,
@@ -91,16 +91,37 @@ pub enum Error {
     },
     #[error("{}: {message}", path.display())]
     Obj { path: PathBuf, message: String },
+    #[error("{} ({format}): {message}", path.display())]
+    Mesh {
+        path: PathBuf,
+        format: &'static str,
+        message: String,
+    },
+    #[error("{} (material file): {message}", path.display())]
+    MaterialFile { path: PathBuf, message: String },
     #[error("{}:{line}: {message}", path.display())]
     View3d {
         path: PathBuf,
         line: usize,
         message: String,
     },
-    #[error("{}: unsupported scene file extension {ext:?} (expected .json, .obj or .vs3)", path.display())]
+    #[error("{}: unsupported scene file extension {ext:?} (expected .json, .obj, .vs3, .ply, .stl, .gltf or .glb)", path.display())]
     UnknownFormat { path: PathBuf, ext: String },
     #[error("{}: {source}", path.display())]
     InFile { path: PathBuf, source: Box<Error> },
+}
+
+/// What `--triangulate` would do about a face's problem, for the message.
+fn triangulate_hint(problem: &PolygonProblem) -> &'static str {
+    match problem {
+        PolygonProblem::NonConvex { .. } | PolygonProblem::NonPlanar { .. } => {
+            " (--triangulate splits concave and warped faces into triangles)"
+        }
+        PolygonProblem::Degenerate { .. } | PolygonProblem::TooFewVertices { .. } => {
+            " (--triangulate drops degenerate faces, with a count)"
+        }
+        _ => "",
+    }
 }
 
 impl Error {

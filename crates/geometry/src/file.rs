@@ -1,23 +1,110 @@
-//! Scene files: the project's JSON format (read and written) and OBJ/MTL through tobj.
+//! Scene files: the project's JSON format (read and written), OBJ/MTL through tobj,
+//! View3D's `.vs3`, PLY and STL meshes, and glTF/GLB; a material side file for formats
+//! without materials; `--triangulate` for concave and warped faces.
 //! This module is the only place in the workspace that reads scene files.
 
+mod gltf;
 mod json;
+mod material_map;
+mod mesh;
 mod obj;
 mod vs3;
 
+pub use self::gltf::{load_gltf, MAX_GLTF_REFLECTANCE};
 pub use json::{scene_desc_from_json, scene_desc_to_json, scene_desc_to_json_indexed};
+pub use material_map::apply_material_map;
+pub use mesh::{load_ply, load_stl, DEFAULT_MATERIAL, DEFAULT_REFLECTANCE};
 pub use obj::load_obj;
 pub use vs3::{load_vs3, vs3_from_text, View3dControl, VS3_DEFAULT_GRID};
 
 use crate::error::Error;
 use crate::scene::{Scene, SceneDesc};
-use std::path::Path;
+use crate::triangulate::{triangulate, Triangulation};
+use rad_core::Rgb;
+use std::path::{Path, PathBuf};
 
-/// Reads a scene file, by extension: `.json` (our format), `.obj` (with its MTL) or
-/// `.vs3` (View3D's input).
-///
-/// `patch_size` sets the patch grid of OBJ polygons, and of JSON polygons that give
-/// neither `patches` nor `patch_size` (nor a file-wide `patch_size`).
+/// The extensions [`load`] reads.
+pub const SCENE_EXTENSIONS: &[&str] = &["json", "obj", "vs3", "ply", "stl", "gltf", "glb"];
+
+/// How a scene file is read.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LoadOptions {
+    /// Target patch size of polygons whose file gives no grid (required for OBJ, PLY,
+    /// STL and glTF files).
+    pub patch_size: Option<f64>,
+    /// Split concave and warped faces into triangles, drop degenerate ones.
+    pub triangulate: bool,
+    /// Reflectance of the default material, for faces that name none.
+    pub reflectance: Option<Rgb>,
+    /// A material side file ([`apply_material_map`]).
+    pub materials: Option<PathBuf>,
+}
+
+/// A scene file as read, before validation.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    pub desc: SceneDesc,
+    /// A View3D file's control options.
+    pub view3d: Option<View3dControl>,
+    /// What `--triangulate` did (all zero without it).
+    pub triangulation: Triangulation,
+    /// What was read with a change worth a warning, and what the material file did.
+    pub notes: Vec<String>,
+}
+
+/// Reads a scene file, by extension (see [`SCENE_EXTENSIONS`]), into a description:
+/// the side file's materials applied, then faces triangulated if asked.
+pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    if !SCENE_EXTENSIONS.contains(&ext.as_str()) {
+        return Err(Error::UnknownFormat {
+            path: path.to_path_buf(),
+            ext,
+        });
+    }
+    if let Err(source) = std::fs::metadata(path) {
+        return Err(Error::Io {
+            path: path.to_path_buf(),
+            source,
+        });
+    }
+    let size = options.patch_size.unwrap_or(PATCH_SIZE_REQUIRED);
+    let reflectance = options.reflectance;
+    let mut notes = Vec::new();
+    let mut view3d = None;
+    let mut desc = match ext.as_str() {
+        "json" => load_json(path, options.patch_size)?,
+        "obj" => load_obj(path, size, reflectance)?,
+        "vs3" => {
+            let (desc, control) = load_vs3(path, options.patch_size)?;
+            view3d = Some(control);
+            desc
+        }
+        "ply" => load_ply(path, size, reflectance)?,
+        "stl" => load_stl(path, size, reflectance)?,
+        _ => load_gltf(path, size, reflectance, &mut notes)?,
+    };
+    if let Some(map) = &options.materials {
+        notes.extend(apply_material_map(&mut desc, map)?);
+    }
+    let triangulation = if options.triangulate {
+        triangulate(&mut desc)
+    } else {
+        Triangulation::default()
+    };
+    Ok(Loaded {
+        desc,
+        view3d,
+        triangulation,
+        notes,
+    })
+}
+
+/// Reads and validates a scene file with only a patch size (see [`load`]).
 pub fn load_scene(path: &Path, patch_size: Option<f64>) -> Result<Scene, Error> {
     let desc = load_scene_desc(path, patch_size)?;
     Scene::new(desc).map_err(|e| Error::InFile {
@@ -26,49 +113,39 @@ pub fn load_scene(path: &Path, patch_size: Option<f64>) -> Result<Scene, Error> 
     })
 }
 
-/// Reads a scene file into an unvalidated description (see [`load_scene`]).
+/// Reads a scene file into an unvalidated description, with only a patch size.
 pub fn load_scene_desc(path: &Path, patch_size: Option<f64>) -> Result<SceneDesc, Error> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    match ext.as_str() {
-        "json" => {
-            let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-                path: path.to_path_buf(),
-                source,
-            })?;
-            scene_desc_from_json(&text, patch_size).map_err(|e| match e {
-                Error::Json {
-                    line,
-                    column,
-                    message,
-                    ..
-                } => Error::Json {
-                    path: path.to_path_buf(),
-                    line,
-                    column,
-                    message,
-                },
-                e => Error::InFile {
-                    path: path.to_path_buf(),
-                    source: Box::new(e),
-                },
-            })
-        }
-        "obj" => {
-            let size = patch_size.unwrap_or(DEFAULT_OBJ_PATCH_SIZE_HINT);
-            load_obj(path, size)
-        }
-        "vs3" => load_vs3(path, patch_size).map(|(desc, _)| desc),
-        _ => Err(Error::UnknownFormat {
-            path: path.to_path_buf(),
-            ext,
-        }),
-    }
+    let options = LoadOptions {
+        patch_size,
+        ..LoadOptions::default()
+    };
+    load(path, &options).map(|l| l.desc)
 }
 
-/// Patch size used for OBJ files when none is given: NaN, which scene validation
+fn load_json(path: &Path, patch_size: Option<f64>) -> Result<SceneDesc, Error> {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    scene_desc_from_json(&text, patch_size).map_err(|e| match e {
+        Error::Json {
+            line,
+            column,
+            message,
+            ..
+        } => Error::Json {
+            path: path.to_path_buf(),
+            line,
+            column,
+            message,
+        },
+        e => Error::InFile {
+            path: path.to_path_buf(),
+            source: Box::new(e),
+        },
+    })
+}
+
+/// Patch size used for mesh files when none is given: NaN, which scene validation
 /// rejects with a message asking for `--patch-size`.
-const DEFAULT_OBJ_PATCH_SIZE_HINT: f64 = f64::NAN;
+const PATCH_SIZE_REQUIRED: f64 = f64::NAN;

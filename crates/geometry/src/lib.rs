@@ -8,11 +8,14 @@ mod hit_test;
 mod polygon;
 mod scene;
 pub mod scenes;
+mod triangulate;
 
 pub use error::{Error, PolygonProblem};
 pub use hit_test::{OriginTerms, PolygonTerms, Shape, Triangle};
+pub use polygon::vertices_problem;
 pub use polygon::{
     Patch, Polygon, PolygonHit, MAX_CELLS_PER_POLYGON, MAX_COORDINATE, MIN_POLYGON_SIZE,
     MIN_POLYGON_SIZE_RELATIVE, PLANARITY_TOLERANCE,
 };
 pub use scene::{Camera, Material, PatchGrid, PolygonDesc, Scene, SceneDesc, MAX_PATCHES};
+pub use triangulate::{ear_clip, triangulate, Triangulation};

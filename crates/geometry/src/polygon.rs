@@ -822,3 +822,9 @@ fn fill_empty_cells(cell_patch: &mut [PatchId], nu: u32, nv: u32) {
         }
     }
 }
+
+/// What would make `vertices` an invalid polygon (the checks of [`Polygon::build`] but
+/// the patch grid's), or `None` when they make a valid one.
+pub fn vertices_problem(vertices: &[Vec3]) -> Option<PolygonProblem> {
+    validated(vertices, 1, 1).err()
+}

@@ -50,6 +50,11 @@ pub fn auto_exposure(img: &Image) -> f32 {
     (0.8 / p) as f32
 }
 
+/// sRGB transfer of a linear value in [0, 1], to 8 bits (values outside are clipped).
+pub fn srgb8(v: f32) -> u8 {
+    srgb(v)
+}
+
 /// sRGB transfer of a linear value in [0, 1].
 fn srgb(v: f32) -> u8 {
     let v = v.clamp(0.0, 1.0);

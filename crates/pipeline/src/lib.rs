@@ -3,6 +3,7 @@
 //! [`RowMethod`], the reciprocal matrix and its solve, solution files written and read
 //! back, images written. It computes and writes; it never prints.
 
+pub mod export;
 pub mod images;
 pub mod matrix_file;
 mod method;
@@ -19,8 +20,10 @@ pub use method::{CasterKind, RowMethod};
 // the pipeline.
 pub use glam::Vec3;
 pub use parse::{parse_patch_list, parse_resolution};
+pub use rad_core::Rgb;
 pub use rad_estimator::{EstimateStats, Mode};
-pub use rad_geometry::Camera;
+pub use rad_geometry::file::{LoadOptions, SCENE_EXTENSIONS};
+pub use rad_geometry::{Camera, Triangulation};
 pub use rad_hemisphere::{Hemisphere, HemisphereConfig};
 pub use rad_render::{RenderConfig, Shading, View};
 pub use rad_solver::{Enclosure, SolveConfig, Solver};

@@ -2,8 +2,8 @@
 //! solution is only ever read back against the very scene it was made for.
 
 use crate::Error;
-use rad_geometry::file::{load_scene, load_vs3, View3dControl};
-use rad_geometry::Scene;
+use rad_geometry::file::{load, LoadOptions, View3dControl};
+use rad_geometry::{Scene, Triangulation};
 use std::path::{Path, PathBuf};
 
 /// A scene file, loaded and fingerprinted.
@@ -15,12 +15,39 @@ pub struct SceneFile {
     pub hash: u64,
     /// A View3D file's control options (title, `encl`, `emit`, those ignored).
     pub view3d: Option<View3dControl>,
+    /// What `--triangulate` did (all zero without it): for a warning.
+    pub triangulation: Triangulation,
+    /// What was read with a change worth a warning (a clamped glTF reflectance, an
+    /// ignored texture), and what the material file assigned.
+    pub notes: Vec<String>,
 }
 
 impl SceneFile {
-    /// Loads `path` (JSON or OBJ and its MTL files), with `patch_size` for polygons
-    /// that give no grid.
+    /// A scene built in code, as if loaded from `path` (fingerprinted; no notes).
+    pub fn of_scene(path: impl Into<PathBuf>, scene: Scene) -> SceneFile {
+        let hash = fingerprint(&scene);
+        SceneFile {
+            path: path.into(),
+            scene,
+            hash,
+            view3d: None,
+            triangulation: Triangulation::default(),
+            notes: Vec::new(),
+        }
+    }
+
+    /// Loads `path` with `patch_size` for polygons that give no grid.
     pub fn load(path: &Path, patch_size: Option<f64>) -> Result<SceneFile, Error> {
+        let options = LoadOptions {
+            patch_size,
+            ..LoadOptions::default()
+        };
+        SceneFile::load_with(path, &options)
+    }
+
+    /// Loads `path` (any format of `rad_geometry::file::SCENE_EXTENSIONS`) as `options`
+    /// say, and validates it.
+    pub fn load_with(path: &Path, options: &LoadOptions) -> Result<SceneFile, Error> {
         if let Err(source) = std::fs::metadata(path) {
             return Err(Error::Io {
                 action: "read",
@@ -28,26 +55,19 @@ impl SceneFile {
                 source,
             });
         }
-        let is_vs3 = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("vs3"));
-        let (scene, view3d) = if is_vs3 {
-            let (desc, control) = load_vs3(path, patch_size)?;
-            let scene = Scene::new(desc).map_err(|e| rad_geometry::Error::InFile {
-                path: path.to_path_buf(),
-                source: Box::new(e),
-            })?;
-            (scene, Some(control))
-        } else {
-            (load_scene(path, patch_size)?, None)
-        };
+        let loaded = load(path, options)?;
+        let scene = Scene::new(loaded.desc).map_err(|e| rad_geometry::Error::InFile {
+            path: path.to_path_buf(),
+            source: Box::new(e),
+        })?;
         let hash = fingerprint(&scene);
         Ok(SceneFile {
             path: path.to_path_buf(),
             scene,
             hash,
-            view3d,
+            view3d: loaded.view3d,
+            triangulation: loaded.triangulation,
+            notes: loaded.notes,
         })
     }
 

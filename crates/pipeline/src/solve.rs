@@ -480,6 +480,8 @@ mod tests {
             scene: Scene::new(cube(2)).unwrap(),
             hash,
             view3d: None,
+            triangulation: Default::default(),
+            notes: Vec::new(),
         }
     }
 

@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 use rad_core::{PatchId, Ray, RayCast};
-use rad_geometry::{Camera, Scene};
+use rad_geometry::{Camera, Polygon, Scene};
 use rayon::prelude::*;
 
 /// Largest image side, and largest pixel count, accepted.
@@ -157,8 +157,28 @@ impl Image {
     }
 }
 
-/// Per-polygon corner values for smooth shading: `(nu + 1) × (nv + 1)` per polygon.
-fn corner_values(scene: &Scene, b: &[[f64; 3]]) -> Vec<Vec<[f64; 3]>> {
+/// The smooth shading's value at (u, v) of `poly`: its corner values (one polygon's of
+/// [`corner_values`]) interpolated bilinearly across the cell (u, v) lies in (clamped to
+/// the grid).
+pub fn smooth_at(poly: &Polygon, corners: &[[f64; 3]], u: f32, v: f32) -> [f64; 3] {
+    let (nu, nv) = poly.grid();
+    let (fu, fv) = poly.cell_coords(u, v);
+    let i = (fu.floor() as i64).clamp(0, nu as i64 - 1) as usize;
+    let j = (fv.floor() as i64).clamp(0, nv as i64 - 1) as usize;
+    let x = (fu - i as f32).clamp(0.0, 1.0) as f64;
+    let y = (fv - j as f32).clamp(0.0, 1.0) as f64;
+    let row = nu as usize + 1;
+    let k = corners;
+    let (c00, c10) = (k[j * row + i], k[j * row + i + 1]);
+    let (c01, c11) = (k[(j + 1) * row + i], k[(j + 1) * row + i + 1]);
+    std::array::from_fn(|c| {
+        (1.0 - y) * ((1.0 - x) * c00[c] + x * c10[c]) + y * ((1.0 - x) * c01[c] + x * c11[c])
+    })
+}
+
+/// Per-polygon corner values for smooth shading: `(nu + 1) × (nv + 1)` per polygon, the
+/// mean of the (one to four) patches of the polygon around each corner of its grid.
+pub fn corner_values(scene: &Scene, b: &[[f64; 3]]) -> Vec<Vec<[f64; 3]>> {
     let patches = scene.patches();
     scene
         .polygons()
@@ -247,22 +267,7 @@ pub fn render<C: RayCast>(
         let poly = &polygons[hit.polygon as usize];
         match config.shading {
             Shading::Flat => b[poly.patch_at(hit.u, hit.v) as usize],
-            Shading::Smooth => {
-                let (nu, nv) = poly.grid();
-                let (fu, fv) = poly.cell_coords(hit.u, hit.v);
-                let i = (fu.floor() as i64).clamp(0, nu as i64 - 1) as usize;
-                let j = (fv.floor() as i64).clamp(0, nv as i64 - 1) as usize;
-                let x = (fu - i as f32).clamp(0.0, 1.0) as f64;
-                let y = (fv - j as f32).clamp(0.0, 1.0) as f64;
-                let row = nu as usize + 1;
-                let k = &corners[hit.polygon as usize];
-                let (c00, c10) = (k[j * row + i], k[j * row + i + 1]);
-                let (c01, c11) = (k[(j + 1) * row + i], k[(j + 1) * row + i + 1]);
-                std::array::from_fn(|c| {
-                    (1.0 - y) * ((1.0 - x) * c00[c] + x * c10[c])
-                        + y * ((1.0 - x) * c01[c] + x * c11[c])
-                })
-            }
+            Shading::Smooth => smooth_at(poly, &corners[hit.polygon as usize], hit.u, hit.v),
         }
     };
     let rays = view.rays();

@@ -724,3 +724,115 @@ fn render_an_obj_scene_with_camera_flags_and_radiance() {
         }
     }
 }
+
+#[test]
+fn a_ply_box_with_a_concave_face_and_a_material_file_solves_and_exports() {
+    // A closed unit box as PLY, every face facing in: its top (y = 1) is an L-shaped
+    // hexagon (concave, refused without --triangulate) and the square in its notch, the
+    // lamp, named by the material file's box rule; a degenerate sliver besides.
+    let dir = tempfile::tempdir().unwrap();
+    let vertices = [
+        [0., 0., 0.],
+        [1., 0., 0.],
+        [1., 1., 0.],
+        [0., 1., 0.],
+        [0., 0., 1.],
+        [1., 0., 1.],
+        [1., 1., 1.],
+        [0., 1., 1.],
+        [0.5, 1., 0.],
+        [0.5, 1., 0.5],
+        [0., 1., 0.5],
+        [1., 1., 0.5],
+    ];
+    let faces = [
+        "4 0 4 5 1",      // y = 0
+        "4 0 3 7 4",      // x = 0
+        "4 1 5 6 2",      // x = 1
+        "4 0 1 2 3",      // z = 0
+        "4 4 7 6 5",      // z = 1
+        "6 3 8 9 11 6 7", // y = 1: the L, concave at vertex 9
+        "4 8 2 11 9",     // y = 1: the lamp, [0.5, 1] x [0, 0.5] in x, z
+        "3 0 1 1",        // a degenerate sliver
+    ];
+    let mut ply = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        vertices.len(),
+        faces.len()
+    );
+    for p in &vertices {
+        ply.push_str(&format!("{} {} {}\n", p[0], p[1], p[2]));
+    }
+    for f in faces {
+        ply.push_str(f);
+        ply.push('\n');
+    }
+    let path = dir.path().join("box.ply");
+    std::fs::write(&path, ply).unwrap();
+    let map = dir.path().join("materials.json");
+    std::fs::write(
+        &map,
+        r#"{"materials": [{"name": "lamp", "reflectance": [0, 0, 0], "emission": [10, 10, 10]}],
+            "assign": [{"material": "lamp", "inside": {"min": [0.49, 0.99, -0.01], "max": [1.01, 1.01, 0.51]}}]}"#,
+    )
+    .unwrap();
+    let p = path.to_str().unwrap();
+    let base = ["--patch-size", "0.25", "--materials", map.to_str().unwrap()];
+    let refused = coherad(&[&["patches", p][..], &base].concat());
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && err.contains("box.ply") && err.contains("--triangulate"),
+        "{err}"
+    );
+    let sol = dir.path().join("s.json");
+    let s = sol.to_str().unwrap();
+    let solve = coherad(
+        &[
+            &[
+                "solve",
+                p,
+                "--triangulate",
+                "--resolution",
+                "20x80",
+                "--out",
+                s,
+            ][..],
+            &base,
+        ]
+        .concat(),
+    );
+    let err = String::from_utf8_lossy(&solve.stderr);
+    assert!(solve.status.success(), "{err}");
+    assert!(
+        err.contains("split 1 concave or warped faces into 4 triangles"),
+        "{err}"
+    );
+    assert!(err.contains("dropped 1 degenerate faces"), "{err}");
+    assert!(err.contains("material \"lamp\" given to 1 faces"), "{err}");
+    let solution: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&sol).unwrap()).unwrap();
+    let emitted = solution["solver"]["energy"]["emitted"][0].as_f64().unwrap();
+    // The lamp is 0.25 m² at 10 W/m².
+    assert!((emitted - 2.5).abs() < 1e-9, "{emitted}");
+    let glb = dir.path().join("box.glb");
+    let g = glb.to_str().unwrap();
+    let export = coherad(
+        &[
+            &[
+                "export",
+                p,
+                "--triangulate",
+                "--solution",
+                s,
+                "--exposure=-2",
+                "--out",
+                g,
+            ][..],
+            &base,
+        ]
+        .concat(),
+    );
+    let err = String::from_utf8_lossy(&export.stderr);
+    assert!(export.status.success() && err.contains("EV -2.00"), "{err}");
+    assert_eq!(&std::fs::read(&glb).unwrap()[..4], b"glTF");
+}

@@ -7,11 +7,13 @@ use glam::Vec3;
 use rad_core::Rgb;
 use std::path::Path;
 
-/// Name of the material given to faces with none (reflectance 0.5 grey, no emission).
-pub const DEFAULT_MATERIAL: &str = "(default)";
-
-/// Reads an OBJ file and its MTL libraries. Faces are kept as polygons (not triangulated).
-pub fn load_obj(path: &Path, patch_size: f64) -> Result<SceneDesc, Error> {
+/// Reads an OBJ file and its MTL libraries. Faces are kept as polygons (not triangulated);
+/// faces with no material take the default one (`reflectance`, else 0.5 grey).
+pub fn load_obj(
+    path: &Path,
+    patch_size: f64,
+    reflectance: Option<Rgb>,
+) -> Result<SceneDesc, Error> {
     let obj_err = |message: String| Error::Obj {
         path: path.to_path_buf(),
         message,
@@ -58,11 +60,7 @@ pub fn load_obj(path: &Path, patch_size: f64) -> Result<SceneDesc, Error> {
                 })
             }
             None => *default_material.get_or_insert_with(|| {
-                materials.push(Material {
-                    name: DEFAULT_MATERIAL.to_string(),
-                    reflectance: Rgb([0.5; 3]),
-                    emission: Rgb::BLACK,
-                });
+                materials.push(super::mesh::default_material(reflectance));
                 materials.len() - 1
             }),
         };

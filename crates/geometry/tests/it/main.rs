@@ -2,5 +2,6 @@
 
 mod errors;
 mod frames;
+mod meshes;
 mod props;
 mod scenes;

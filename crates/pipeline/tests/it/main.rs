@@ -10,12 +10,16 @@ use rad_pipeline::{
 };
 use rad_solver::FormFactors;
 
+mod export;
+
 fn loft() -> SceneFile {
     SceneFile {
         path: "loft.json".into(),
         scene: Scene::new(scenes::loft()).unwrap(),
         hash: 1,
         view3d: None,
+        triangulation: Default::default(),
+        notes: Vec::new(),
     }
 }
 

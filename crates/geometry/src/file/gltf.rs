@@ -1,0 +1,406 @@
+//! glTF 2.0 scenes (`.gltf` with embedded or external buffers, and `.glb`) through the
+//! `gltf` crate: every triangle of the default scene's meshes, placed by its nodes'
+//! transforms, is a polygon; materials from `baseColorFactor` (reflectance) and
+//! `emissiveFactor` × `KHR_materials_emissive_strength` (emission), or from the
+//! `extras.coherad` that `coherad export` writes; the first perspective camera.
+
+use super::mesh::default_material;
+use crate::error::Error;
+use crate::scene::{Camera, Material, PatchGrid, PolygonDesc, SceneDesc};
+use glam::{Mat4, Vec3};
+use rad_core::Rgb;
+use std::path::Path;
+
+/// Largest reflectance taken from a `baseColorFactor` (the scene's reflectances must be
+/// under 1; glTF's default white is 1).
+pub const MAX_GLTF_REFLECTANCE: f64 = 0.99;
+
+/// Deepest node hierarchy followed (a cycle is refused before it).
+const MAX_NODE_DEPTH: usize = 256;
+
+fn err(path: &Path, message: impl Into<String>) -> Error {
+    Error::Mesh {
+        path: path.to_path_buf(),
+        format: "glTF",
+        message: message.into(),
+    }
+}
+
+/// The `extras.coherad` object of an exported material.
+#[derive(serde::Deserialize)]
+struct CoheradExtras {
+    coherad: CoheradMaterial,
+}
+
+#[derive(serde::Deserialize)]
+struct CoheradMaterial {
+    reflectance: [f64; 3],
+    emission: [f64; 3],
+}
+
+/// Reads a glTF or GLB file; `notes` collects what was read with a change worth a
+/// warning (a clamped reflectance, textures and primitives ignored).
+pub fn load_gltf(
+    path: &Path,
+    patch_size: f64,
+    reflectance: Option<Rgb>,
+    notes: &mut Vec<String>,
+) -> Result<SceneDesc, Error> {
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let gltf =
+        gltf::Gltf::from_slice(&bytes).map_err(|e| err(path, format!("cannot parse glTF: {e}")))?;
+    let buffers = load_buffers(path, &gltf)?;
+    let doc = &gltf.document;
+    let mut materials = Vec::new();
+    let mut names = std::collections::HashSet::new();
+    for (k, m) in doc.materials().enumerate() {
+        let mut name = m
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("material {k}"));
+        if !names.insert(name.clone()) {
+            name = format!("{name} ({k})");
+            names.insert(name.clone());
+        }
+        materials.push(material_of(&m, name, notes)?);
+    }
+    let default = materials.len();
+    materials.push(default_material(reflectance));
+    let mut desc = SceneDesc {
+        materials,
+        polygons: Vec::new(),
+        camera: None,
+    };
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| err(path, "has no scene"))?;
+    let mut stack: Vec<(gltf::Node, Mat4, usize)> =
+        scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    stack.reverse();
+    while let Some((node, parent, depth)) = stack.pop() {
+        if depth > MAX_NODE_DEPTH {
+            return Err(err(
+                path,
+                format!("node hierarchy deeper than {MAX_NODE_DEPTH} (a cycle?)"),
+            ));
+        }
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if !world.is_finite() {
+            return Err(err(
+                path,
+                format!("node {} has a non-finite transform", node.index()),
+            ));
+        }
+        if let (Some(cam), None) = (node.camera(), desc.camera) {
+            if let gltf::camera::Projection::Perspective(p) = cam.projection() {
+                let position = world.transform_point3(Vec3::ZERO);
+                desc.camera = Some(Camera {
+                    position,
+                    look_at: position + world.transform_vector3(-Vec3::Z),
+                    up: world.transform_vector3(Vec3::Y),
+                    fov_y: p.yfov(),
+                });
+            }
+        }
+        if let Some(mesh) = node.mesh() {
+            add_mesh(
+                path, &mesh, world, &buffers, default, patch_size, &mut desc, notes,
+            )?;
+        }
+        let children: Vec<_> = node.children().collect();
+        stack.extend(children.into_iter().rev().map(|c| (c, world, depth + 1)));
+    }
+    if desc.polygons.is_empty() {
+        return Err(err(path, "its scene has no triangles"));
+    }
+    Ok(desc)
+}
+
+/// The scene material of a glTF material.
+fn material_of(
+    m: &gltf::Material,
+    name: String,
+    notes: &mut Vec<String>,
+) -> Result<Material, Error> {
+    if let Some(raw) = m.extras() {
+        if let Ok(x) = serde_json::from_str::<CoheradExtras>(raw.get()) {
+            return Ok(Material {
+                name,
+                reflectance: Rgb(x.coherad.reflectance),
+                emission: Rgb(x.coherad.emission),
+            });
+        }
+    }
+    let pbr = m.pbr_metallic_roughness();
+    let base = pbr.base_color_factor();
+    let mut reflectance = [base[0], base[1], base[2]].map(f64::from);
+    if reflectance.iter().any(|&c| c > MAX_GLTF_REFLECTANCE) {
+        notes.push(format!(
+            "material {name:?}: baseColorFactor {reflectance:?} clamped to {MAX_GLTF_REFLECTANCE} (reflectances must be under 1)"
+        ));
+        reflectance = reflectance.map(|c| c.min(MAX_GLTF_REFLECTANCE));
+    }
+    if pbr.base_color_texture().is_some() {
+        notes.push(format!(
+            "material {name:?}: its baseColorTexture is ignored (one reflectance a material)"
+        ));
+    }
+    let strength = f64::from(m.emissive_strength().unwrap_or(1.0));
+    let emission = m.emissive_factor().map(|c| f64::from(c) * strength);
+    Ok(Material {
+        name,
+        reflectance: Rgb(reflectance),
+        emission: Rgb(emission),
+    })
+}
+
+/// A triangle primitive's positions (untransformed) and triangles (vertex indices),
+/// strips and fans unrolled.
+fn primitive_triangles(
+    path: &Path,
+    prim: &gltf::Primitive,
+    buffers: &[Vec<u8>],
+    place: &str,
+) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), Error> {
+    use gltf::mesh::Mode;
+    let mode = prim.mode();
+    for (_, acc) in prim
+        .attributes()
+        .filter(|(s, _)| *s == gltf::Semantic::Positions)
+    {
+        if acc.sparse().is_some() {
+            return Err(err(
+                path,
+                format!("{place}: sparse position accessors are not supported"),
+            ));
+        }
+    }
+    if prim.indices().is_some_and(|a| a.sparse().is_some()) {
+        return Err(err(
+            path,
+            format!("{place}: sparse index accessors are not supported"),
+        ));
+    }
+    let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
+    let expected = prim
+        .get(&gltf::Semantic::Positions)
+        .map(|a| a.count())
+        .ok_or_else(|| err(path, format!("{place} has no POSITION")))?;
+    let positions: Vec<Vec3> = reader
+        .read_positions()
+        .ok_or_else(|| {
+            err(
+                path,
+                format!("{place}: its POSITION data lies outside its buffer"),
+            )
+        })?
+        .map(Vec3::from_array)
+        .collect();
+    if positions.len() != expected {
+        return Err(err(
+            path,
+            format!(
+                "{place}: POSITION has {} of its {expected} vertices (buffer too short)",
+                positions.len()
+            ),
+        ));
+    }
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(ix) => {
+            let expected = prim.indices().map_or(0, |a| a.count());
+            let ix: Vec<u32> = ix.into_u32().collect();
+            if ix.len() != expected {
+                return Err(err(
+                    path,
+                    format!(
+                        "{place}: its indices have {} of {expected} entries (buffer too short)",
+                        ix.len()
+                    ),
+                ));
+            }
+            ix
+        }
+        None if prim.indices().is_some() => {
+            return Err(err(
+                path,
+                format!("{place}: its index data lies outside its buffer"),
+            ))
+        }
+        None => (0..positions.len() as u32).collect(),
+    };
+    let triangles: Vec<[u32; 3]> = match mode {
+        Mode::Triangles => indices
+            .chunks_exact(3)
+            .map(|t| [t[0], t[1], t[2]])
+            .collect(),
+        Mode::TriangleStrip => (2..indices.len())
+            .map(|k| {
+                let t = [indices[k - 2], indices[k - 1], indices[k]];
+                if k % 2 == 1 {
+                    [t[1], t[0], t[2]]
+                } else {
+                    t
+                }
+            })
+            .collect(),
+        _ => (2..indices.len())
+            .map(|k| [indices[0], indices[k - 1], indices[k]])
+            .collect(),
+    };
+    Ok((positions, triangles))
+}
+
+/// Every triangle of `mesh`'s primitives, transformed by `world`.
+#[allow(clippy::too_many_arguments)]
+fn add_mesh(
+    path: &Path,
+    mesh: &gltf::Mesh,
+    world: Mat4,
+    buffers: &[Vec<u8>],
+    default: usize,
+    patch_size: f64,
+    desc: &mut SceneDesc,
+    notes: &mut Vec<String>,
+) -> Result<(), Error> {
+    use gltf::mesh::Mode;
+    let group = mesh
+        .name()
+        .map(str::to_string)
+        .unwrap_or_else(|| format!("mesh {}", mesh.index()));
+    let flip = world.determinant() < 0.0;
+    for prim in mesh.primitives() {
+        let place = format!("mesh {group:?} primitive {}", prim.index());
+        let mode = prim.mode();
+        if !matches!(
+            mode,
+            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+        ) {
+            notes.push(format!(
+                "{place}: {mode:?} ignored (only triangles make surfaces)"
+            ));
+            continue;
+        }
+        let (positions, triangles) = primitive_triangles(path, &prim, buffers, &place)?;
+        let positions: Vec<Vec3> = positions
+            .into_iter()
+            .map(|p| world.transform_point3(p))
+            .collect();
+        let material = match prim.material().index() {
+            Some(m) => m,
+            None => default,
+        };
+        for (k, t) in triangles.iter().enumerate() {
+            let mut vertices = t
+                .iter()
+                .map(|&i| {
+                    positions
+                        .get(i as usize)
+                        .copied()
+                        .ok_or(Error::IndexOutOfRange {
+                            index_kind: "vertex",
+                            index: i64::from(i),
+                            len: positions.len(),
+                            place: format!("{} {place} triangle {k}", path.display()),
+                        })
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            if flip {
+                vertices.swap(1, 2);
+            }
+            desc.polygons.push(PolygonDesc {
+                name: format!("{group}/prim {}/tri {k}", prim.index()),
+                vertices,
+                material,
+                grid: PatchGrid::Size(patch_size),
+                group: Some(group.clone()),
+                obstruction: false,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The bytes of every buffer: the GLB's BIN chunk, a `data:` URI (base64) or a file
+/// beside the glTF.
+fn load_buffers(path: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>, Error> {
+    let mut out = Vec::new();
+    for buffer in gltf.document.buffers() {
+        let data = match buffer.source() {
+            gltf::buffer::Source::Bin => gltf.blob.clone().ok_or_else(|| {
+                err(
+                    path,
+                    format!("buffer {} names a BIN chunk the file lacks", buffer.index()),
+                )
+            })?,
+            gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
+                let (_, b64) = uri.split_once(";base64,").ok_or_else(|| {
+                    err(
+                        path,
+                        format!("buffer {}: a data URI that is not base64", buffer.index()),
+                    )
+                })?;
+                decode_base64(b64).ok_or_else(|| {
+                    err(
+                        path,
+                        format!("buffer {}: bad base64 in its data URI", buffer.index()),
+                    )
+                })?
+            }
+            gltf::buffer::Source::Uri(uri) => {
+                if uri.contains("://") || uri.contains("..") || uri.starts_with('/') {
+                    return Err(err(
+                        path,
+                        format!(
+                            "buffer {}: {uri:?} is not a relative file beside the glTF",
+                            buffer.index()
+                        ),
+                    ));
+                }
+                let file = path.parent().unwrap_or(Path::new(".")).join(uri);
+                std::fs::read(&file).map_err(|source| Error::Io { path: file, source })?
+            }
+        };
+        if data.len() < buffer.length() {
+            return Err(err(
+                path,
+                format!(
+                    "buffer {} has {} bytes of the {} it declares (truncated)",
+                    buffer.index(),
+                    data.len(),
+                    buffer.length()
+                ),
+            ));
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
+/// Standard base64 (RFC 4648, with or without padding); `None` on any other character.
+pub(crate) fn decode_base64(text: &str) -> Option<Vec<u8>> {
+    let text = text.trim_end_matches('=');
+    let mut out = Vec::with_capacity(text.len() * 3 / 4);
+    let (mut acc, mut bits) = (0u32, 0u32);
+    for c in text.bytes() {
+        let v = match c {
+            b'A'..=b'Z' => c - b'A',
+            b'a'..=b'z' => c - b'a' + 26,
+            b'0'..=b'9' => c - b'0' + 52,
+            b'+' => 62,
+            b'/' => 63,
+            _ => return None,
+        };
+        acc = (acc << 6) | u32::from(v);
+        bits += 6;
+        if bits >= 8 {
+            bits -= 8;
+            out.push((acc >> bits) as u8);
+            acc &= (1 << bits) - 1;
+        }
+    }
+    Some(out)
+}

@@ -1,0 +1,290 @@
+//! Triangle and polygon meshes without materials of their own: PLY (ASCII and binary,
+//! through `ply-rs-bw`) and STL (ASCII and binary, through `stl_io`). Every face is a
+//! polygon of the default material (`LoadOptions::reflectance`, else 0.5 grey); a
+//! material side file (`--materials`) names emitters and other materials.
+
+use crate::error::Error;
+use crate::scene::{Material, PatchGrid, PolygonDesc, SceneDesc};
+use glam::Vec3;
+use rad_core::Rgb;
+use std::path::Path;
+
+/// Name of the material given to faces with none.
+pub const DEFAULT_MATERIAL: &str = "(default)";
+
+/// Reflectance of [`DEFAULT_MATERIAL`] when `--reflectance` gives none.
+pub const DEFAULT_REFLECTANCE: f64 = 0.5;
+
+/// A scene of faces of one default material, grouped by `group`.
+pub(crate) struct MeshBuilder {
+    pub desc: SceneDesc,
+    patch_size: f64,
+}
+
+impl MeshBuilder {
+    pub fn new(patch_size: f64, reflectance: Option<Rgb>) -> MeshBuilder {
+        MeshBuilder {
+            desc: SceneDesc {
+                materials: vec![default_material(reflectance)],
+                polygons: Vec::new(),
+                camera: None,
+            },
+            patch_size,
+        }
+    }
+
+    pub fn face(&mut self, name: String, vertices: Vec<Vec3>, material: usize, group: &str) {
+        self.desc.polygons.push(PolygonDesc {
+            name,
+            vertices,
+            material,
+            grid: PatchGrid::Size(self.patch_size),
+            group: Some(group.to_string()),
+            obstruction: false,
+        });
+    }
+}
+
+/// The material of faces that name none.
+pub(crate) fn default_material(reflectance: Option<Rgb>) -> Material {
+    Material {
+        name: DEFAULT_MATERIAL.to_string(),
+        reflectance: reflectance.unwrap_or(Rgb([DEFAULT_REFLECTANCE; 3])),
+        emission: Rgb::BLACK,
+    }
+}
+
+fn open(path: &Path) -> Result<std::io::BufReader<std::fs::File>, Error> {
+    std::fs::File::open(path)
+        .map(std::io::BufReader::new)
+        .map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+}
+
+fn mesh_err(path: &Path, format: &'static str, message: impl Into<String>) -> Error {
+    Error::Mesh {
+        path: path.to_path_buf(),
+        format,
+        message: message.into(),
+    }
+}
+
+/// Reads an STL file (ASCII or binary): each facet a triangle, in the file's vertex
+/// order (the facet normal is not read: the winding gives the front side).
+pub fn load_stl(
+    path: &Path,
+    patch_size: f64,
+    reflectance: Option<Rgb>,
+) -> Result<SceneDesc, Error> {
+    let mut file = open(path)?;
+    let bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    let mut head = [0u8; 84];
+    use std::io::{Read, Seek};
+    let got = file.read(&mut head).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let ascii = head[..got.min(5)].eq_ignore_ascii_case(b"solid")
+        && !(got == 84
+            && 84 + 50 * u64::from(u32::from_le_bytes([head[80], head[81], head[82], head[83]]))
+                == bytes);
+    if !ascii {
+        if got < 84 {
+            return Err(mesh_err(
+                path,
+                "STL",
+                format!("is {bytes} bytes long: a binary STL file has an 84-byte header"),
+            ));
+        }
+        let count = u64::from(u32::from_le_bytes([head[80], head[81], head[82], head[83]]));
+        if 84 + 50 * count != bytes {
+            return Err(mesh_err(
+                path,
+                "STL",
+                format!("binary STL header gives {count} facets, which take {} bytes, but the file has {bytes} (truncated, or not an STL file)", 84 + 50 * count),
+            ));
+        }
+    }
+    file.rewind().map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let reader = stl_io::create_stl_reader(&mut file)
+        .map_err(|e| mesh_err(path, "STL", format!("cannot parse STL: {e}")))?;
+    let mut mesh = MeshBuilder::new(patch_size, reflectance);
+    let group = stem(path);
+    for (k, tri) in reader.enumerate() {
+        let tri = tri.map_err(|e| mesh_err(path, "STL", format!("facet {k}: {e}")))?;
+        let vertices = tri.vertices.iter().map(|v| Vec3::from_array(v.0)).collect();
+        mesh.face(format!("{group}/facet {k}"), vertices, 0, &group);
+    }
+    Ok(mesh.desc)
+}
+
+/// The file name without its extension, as the group of a mesh's faces.
+pub(crate) fn stem(path: &Path) -> String {
+    path.file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("mesh")
+        .to_string()
+}
+
+/// A PLY vertex: its position (float or double `x`, `y`, `z`; every other property
+/// ignored).
+#[derive(Default)]
+struct PlyVertex {
+    p: [f64; 3],
+    set: u8,
+}
+
+impl ply_rs_bw::ply::PropertyAccess for PlyVertex {
+    fn new() -> Self {
+        PlyVertex::default()
+    }
+    fn set_property(
+        &mut self,
+        key: &str,
+        property: ply_rs_bw::ply::Property,
+    ) -> ply_rs_bw::ply::PropertyAccessResult {
+        use ply_rs_bw::ply::{Property as P, PropertyAccessResult as R};
+        let axis = match key {
+            "x" => 0,
+            "y" => 1,
+            "z" => 2,
+            _ => return R::Ignored,
+        };
+        self.p[axis] = match property {
+            P::Float(v) => f64::from(v),
+            P::Double(v) => v,
+            P::Char(v) => f64::from(v),
+            P::UChar(v) => f64::from(v),
+            P::Short(v) => f64::from(v),
+            P::UShort(v) => f64::from(v),
+            P::Int(v) => f64::from(v),
+            P::UInt(v) => f64::from(v),
+            _ => return R::UnsupportedType,
+        };
+        self.set |= 1 << axis;
+        R::Set
+    }
+}
+
+/// A PLY face: its vertex indices (`vertex_indices` or `vertex_index`, a list of any
+/// integer type).
+#[derive(Default)]
+struct PlyFace {
+    indices: Vec<i64>,
+    set: bool,
+}
+
+impl ply_rs_bw::ply::PropertyAccess for PlyFace {
+    fn new() -> Self {
+        PlyFace::default()
+    }
+    fn set_property(
+        &mut self,
+        key: &str,
+        property: ply_rs_bw::ply::Property,
+    ) -> ply_rs_bw::ply::PropertyAccessResult {
+        use ply_rs_bw::ply::{Property as P, PropertyAccessResult as R};
+        if key != "vertex_indices" && key != "vertex_index" {
+            return R::Ignored;
+        }
+        self.indices = match property {
+            P::ListChar(v) => v.into_iter().map(i64::from).collect(),
+            P::ListUChar(v) => v.into_iter().map(i64::from).collect(),
+            P::ListShort(v) => v.into_iter().map(i64::from).collect(),
+            P::ListUShort(v) => v.into_iter().map(i64::from).collect(),
+            P::ListInt(v) => v.into_iter().map(i64::from).collect(),
+            P::ListUInt(v) => v.into_iter().map(i64::from).collect(),
+            _ => return R::UnsupportedType,
+        };
+        self.set = true;
+        R::Set
+    }
+}
+
+/// Any other PLY element: read past, nothing kept.
+struct PlyIgnored;
+
+impl ply_rs_bw::ply::PropertyAccess for PlyIgnored {
+    fn new() -> Self {
+        PlyIgnored
+    }
+}
+
+/// Reads a PLY file (ASCII or binary, either byte order): its `vertex` element's `x`,
+/// `y`, `z` and its `face` element's vertex lists, each face a polygon.
+pub fn load_ply(
+    path: &Path,
+    patch_size: f64,
+    reflectance: Option<Rgb>,
+) -> Result<SceneDesc, Error> {
+    use ply_rs_bw::parser::{Parser, Reader};
+    let err = |m: String| mesh_err(path, "PLY", m);
+    let mut reader = Reader::new(open(path)?);
+    let header = Parser::<PlyIgnored>::new()
+        .read_header(&mut reader)
+        .map_err(|e| err(format!("cannot parse the PLY header: {e}")))?;
+    let mut vertices: Option<Vec<PlyVertex>> = None;
+    let mut faces: Option<Vec<PlyFace>> = None;
+    for (_, element) in &header.elements {
+        let what =
+            |e: ply_rs_bw::parser::ParseError| err(format!("element {:?}: {e}", element.name));
+        match element.name.as_str() {
+            "vertex" => {
+                vertices = Some(
+                    Parser::<PlyVertex>::new()
+                        .read_payload_for_element(&mut reader, element, &header)
+                        .map_err(what)?,
+                )
+            }
+            "face" => {
+                faces = Some(
+                    Parser::<PlyFace>::new()
+                        .read_payload_for_element(&mut reader, element, &header)
+                        .map_err(what)?,
+                )
+            }
+            _ => {
+                Parser::<PlyIgnored>::new()
+                    .read_payload_for_element(&mut reader, element, &header)
+                    .map_err(what)?;
+            }
+        }
+    }
+    let vertices = vertices.ok_or_else(|| err("has no vertex element".into()))?;
+    let faces =
+        faces.ok_or_else(|| err("has no face element (a point cloud is not a scene)".into()))?;
+    if let Some(k) = vertices.iter().position(|v| v.set != 0b111) {
+        return Err(err(format!("vertex {k} lacks one of x, y, z")));
+    }
+    let mut mesh = MeshBuilder::new(patch_size, reflectance);
+    let group = stem(path);
+    for (k, face) in faces.iter().enumerate() {
+        if !face.set {
+            return Err(err(format!("face {k} has no vertex_indices list")));
+        }
+        let polygon = face
+            .indices
+            .iter()
+            .map(|&i| {
+                usize::try_from(i)
+                    .ok()
+                    .and_then(|i| vertices.get(i))
+                    .map(|v| v.p.map(|c| c as f32))
+                    .map(Vec3::from_array)
+                    .ok_or(Error::IndexOutOfRange {
+                        index_kind: "vertex",
+                        index: i,
+                        len: vertices.len(),
+                        place: format!("{} face {k}", path.display()),
+                    })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        mesh.face(format!("{group}/face {k}"), polygon, 0, &group);
+    }
+    Ok(mesh.desc)
+}
