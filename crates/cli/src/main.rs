@@ -20,11 +20,43 @@ use rad_pipeline::{
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Set by `--quiet`: notes, summaries and progress bars are not shown (warnings and
+/// errors are).
+static QUIET: AtomicBool = AtomicBool::new(false);
+
+/// Set when a solve did not converge: its file is written, and the exit code is
+/// [`EXIT_NOT_CONVERGED`].
+static NOT_CONVERGED: AtomicBool = AtomicBool::new(false);
+
+/// The exit codes (README, "Exit codes"): 0 done, 1 an error, 2 a usage error (clap's),
+/// 3 a solve that did not converge (its file written all the same).
+const EXIT_ERROR: u8 = 1;
+const EXIT_USAGE: u8 = 2;
+const EXIT_NOT_CONVERGED: u8 = 3;
+
+/// A note or summary on standard error, unless `--quiet`.
+macro_rules! say {
+    ($($arg:tt)*) => {
+        if !QUIET.load(Ordering::Relaxed) {
+            eprintln!($($arg)*);
+        }
+    };
+}
+
+/// What `--version` prints: the crate's version and the git revision it was built from.
+const VERSION: &str = concat!(
+    env!("CARGO_PKG_VERSION"),
+    " (git ",
+    env!("COHERAD_GIT_REVISION"),
+    ")"
+);
 
 #[derive(Parser)]
 #[command(
     name = "coherad",
-    version,
+    version = VERSION,
     about = "Radiosity form factors by hemisphere ray casting"
 )]
 struct Cli {
@@ -33,6 +65,9 @@ struct Cli {
     /// Worker threads (default: all cores).
     #[arg(long, global = true)]
     threads: Option<usize>,
+    /// Show only warnings and errors: no notes, summaries or progress bars.
+    #[arg(long, short, global = true)]
+    quiet: bool,
     /// Target patch size, in scene units, for mesh files (OBJ, PLY, STL, glTF: required)
     /// and JSON polygons that give no grid.
     #[arg(long, global = true)]
@@ -55,6 +90,7 @@ struct Cli {
 enum Command {
     /// Every patch of a scene: id, polygon, centre, normal, corners, area (JSON).
     Patches {
+        /// The scene file: .json, .obj (with its MTL), .vs3, .ply, .stl, .gltf or .glb.
         scene: PathBuf,
         /// Write here instead of standard output (atomically: all or nothing).
         #[arg(long)]
@@ -62,6 +98,7 @@ enum Command {
     },
     /// Form-factor rows by hemisphere ray casting (JSON).
     Formfactors {
+        /// The scene file: .json, .obj (with its MTL), .vs3, .ply, .stl, .gltf or .glb.
         scene: PathBuf,
         /// Hemisphere cells, N_THETAxN_PHI (the report: 180x720).
         #[arg(long, default_value = "180x720")]
@@ -75,8 +112,9 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// Surface-to-surface view factors: F_IJ by patch, polygon or group, area to area, under an enclosure rule (JSON, CSV or Matrix Market).
+    /// Surface-to-surface view factors: F_IJ by patch, polygon or group, area to area, under an enclosure rule (JSON, CSV, Matrix Market, View3D text or binary).
     Viewfactors {
+        /// The scene file: .json, .obj (with its MTL), .vs3, .ply, .stl, .gltf or .glb.
         scene: PathBuf,
         /// What a row is: patch, polygon, or group (every polygon's "group" in the JSON
         /// format; an OBJ file's objects and groups; a View3D file's surfaces, combined
@@ -117,6 +155,7 @@ enum Command {
     },
     /// Radiosity of every patch: form factors (exact or estimated), made reciprocal, solved (JSON).
     Solve {
+        /// The scene file: .json, .obj (with its MTL), .vs3, .ply, .stl, .gltf or .glb.
         scene: PathBuf,
         /// Hemisphere cells, N_THETAxN_PHI (the report: 180x720).
         #[arg(long, default_value = "180x720")]
@@ -131,6 +170,10 @@ enum Command {
         /// (default 1e-4)
         #[arg(long)]
         tolerance: Option<f64>,
+        /// Stop after this many sweeps (Gauss-Seidel, progressive) or shots (matrix-free)
+        /// even if not converged (the exit code is then 3). Default: 10,000,000.
+        #[arg(long)]
+        max_iterations: Option<usize>,
         /// Solve the rows as computed, without making them reciprocal first (energy is then
         /// conserved only to their reciprocity error).
         #[arg(long)]
@@ -158,6 +201,7 @@ enum Command {
 /// `coherad export`'s flags.
 #[derive(clap::Args)]
 struct ExportArgs {
+    /// The scene file: .json, .obj (with its MTL), .vs3, .ply, .stl, .gltf or .glb.
     scene: PathBuf,
     /// A solution file written by `coherad solve` for this scene: its radiosity is baked
     /// into vertex colours (without one, the geometry and materials alone).
@@ -175,6 +219,7 @@ struct ExportArgs {
 /// `coherad render`'s flags.
 #[derive(clap::Args)]
 struct RenderArgs {
+    /// The scene file: .json, .obj (with its MTL), .vs3, .ply, .stl, .gltf or .glb.
     scene: PathBuf,
     /// A solution file written by `coherad solve` for this scene.
     #[arg(long)]
@@ -201,8 +246,10 @@ struct RenderArgs {
     /// Also a tone-mapped sRGB PNG preview here.
     #[arg(long)]
     png: Option<PathBuf>,
+    /// Image width, pixels.
     #[arg(long, default_value_t = 640)]
     width: u32,
+    /// Image height, pixels.
     #[arg(long, default_value_t = 480)]
     height: u32,
     /// SAMPLES x SAMPLES rays a pixel.
@@ -310,24 +357,26 @@ impl RowFlags {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    QUIET.store(cli.quiet, Ordering::Relaxed);
     if let Some(n) = cli.threads {
         if n == 0 {
             eprintln!("error: --threads must be at least 1");
-            return ExitCode::from(2);
+            return ExitCode::from(EXIT_USAGE);
         }
         if let Err(e) = rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build_global()
         {
             eprintln!("error: cannot start {n} threads: {e}");
-            return ExitCode::FAILURE;
+            return ExitCode::from(EXIT_ERROR);
         }
     }
     match run(&cli) {
+        Ok(()) if NOT_CONVERGED.load(Ordering::Relaxed) => ExitCode::from(EXIT_NOT_CONVERGED),
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::FAILURE
+            ExitCode::from(EXIT_ERROR)
         }
     }
 }
@@ -366,7 +415,7 @@ fn load_scene_file(cli: &Cli, path: &Path) -> Result<SceneFile, String> {
     let scene = SceneFile::load_with(path, &options).map_err(|e| e.to_string())?;
     let t = &scene.triangulation;
     if t.split > 0 {
-        eprintln!(
+        say!(
             "note: {}: split {} concave or warped faces into {} triangles",
             path.display(),
             t.split,
@@ -382,7 +431,7 @@ fn load_scene_file(cli: &Cli, path: &Path) -> Result<SceneFile, String> {
         );
     }
     for note in &scene.notes {
-        eprintln!("note: {}: {note}", path.display());
+        say!("note: {}: {note}", path.display());
     }
     Ok(scene)
 }
@@ -452,7 +501,7 @@ fn run(cli: &Cli) -> Result<(), String> {
             let mut opts = viewfactor_options(&scene, by, *origins, enclosure, *caster);
             opts.script_f = *script_f || v3.is_some_and(|c| c.emit);
             if let Some(c) = v3.filter(|c| !c.ignored.is_empty()) {
-                eprintln!(
+                say!(
                     "note: View3D options of its own integration, not used here: {}",
                     c.ignored.join(" ")
                 );
@@ -466,6 +515,7 @@ fn run(cli: &Cli) -> Result<(), String> {
             rows,
             solver,
             tolerance,
+            max_iterations,
             raw,
             storage,
             memory_limit,
@@ -476,6 +526,7 @@ fn run(cli: &Cli) -> Result<(), String> {
             let how = How {
                 solver: *solver,
                 tolerance: *tolerance,
+                max_iterations: *max_iterations,
                 raw: *raw,
                 storage: *storage,
                 memory_limit: parse_bytes(memory_limit)?,
@@ -500,7 +551,7 @@ fn export_scene(scene: &SceneFile, args: &ExportArgs) -> Result<(), String> {
         .scale
         .map(|s| format!(", colours B x {s:.4} (EV {:+.2})", s.log2()))
         .unwrap_or_default();
-    eprintln!(
+    say!(
         "wrote {}: {} meshes, {} vertices, {} triangles, {} bytes{scale}",
         args.out.display(),
         summary.meshes,
@@ -520,7 +571,7 @@ fn hemisphere(resolution: &str) -> Result<Hemisphere, String> {
 /// A bar for `n_rows` rows of `hemi`, shown when the job is long (over about 50 M rays).
 fn row_bar(hemi: &Hemisphere, method: RowMethod, n_rows: usize) -> ProgressBar {
     let rays = n_rows as u64 * hemi.n_cells() as u64;
-    let bar = if rays > 50_000_000 {
+    let bar = if rays > 50_000_000 && !QUIET.load(Ordering::Relaxed) {
         ProgressBar::new(n_rows as u64)
     } else {
         ProgressBar::hidden()
@@ -545,7 +596,7 @@ fn report_estimates(method: RowMethod, s: &EstimateStats) {
     if method.is_exact() {
         return;
     }
-    eprintln!(
+    say!(
         "{} rows cast exactly (window centres), {} estimated, {} cast exactly after needing real rays for over {:.0} % of their cells ({} real rays)",
         s.exact,
         s.estimated,
@@ -675,7 +726,7 @@ fn viewfactors(
     let n_patches = scene.scene.patches().len();
     let per_patch = u64::from(opts.origins).pow(2);
     let rays = n_patches as u64 * per_patch * hemi.n_cells() as u64;
-    let bar = if rays > 50_000_000 {
+    let bar = if rays > 50_000_000 && !QUIET.load(Ordering::Relaxed) {
         ProgressBar::new(n_patches as u64)
     } else {
         ProgressBar::hidden()
@@ -712,7 +763,7 @@ fn viewfactors(
         .map_err(|e| e.to_string())?;
         bar.finish_and_clear();
         let done = done.expect("written");
-        eprintln!(
+        say!(
             "{} rows, {} entries written as made; {} rows lose form factor to rays leaving the scene, {} see polygons from behind",
             done.n_patches, done.entries, done.escaping_rows, done.back_rows
         );
@@ -722,7 +773,7 @@ fn viewfactors(
     bar.finish_and_clear();
     let leaking = (0..vf.names.len()).filter(|&i| vf.escaped[i] > 0.0).count();
     if leaking > 0 {
-        eprintln!(
+        say!(
             "note: {leaking} of {} surfaces lose form factor to rays that leave the scene (the scene is not closed)",
             vf.names.len()
         );
@@ -739,7 +790,7 @@ fn viewfactors(
         );
     }
     let r = &vf.report;
-    eprintln!(
+    say!(
         "enclosure {}: rows' |1 - sum| max {:.3e} (median {:.3e}), reciprocity error max {:.3e} (median {:.3e}); as computed: {:.3e} ({:.3e}) and {:.3e} ({:.3e}); largest change {:.3e}",
         vf.enclosure.name(),
         r.fixed.row_sum.max,
@@ -876,6 +927,7 @@ fn camera(scene: &SceneFile, f: &CameraFlags) -> Result<Camera, String> {
 struct How {
     solver: SolverKind,
     tolerance: Option<f64>,
+    max_iterations: Option<usize>,
     raw: bool,
     storage: StorageKind,
     memory_limit: usize,
@@ -948,6 +1000,13 @@ fn solve(
         opts.config.tolerance = t;
         opts.matrix_free.tolerance = t;
     }
+    if let Some(n) = how.max_iterations {
+        if n == 0 {
+            return Err("--max-iterations must be at least 1".into());
+        }
+        opts.config.max_iterations = n;
+        opts.matrix_free.max_iterations = n;
+    }
     let n = scene.scene.patches().len();
     let bar = row_bar(&hemi, method, n);
     let (file, solved, stats) = solve_scene(scene, &hemi, method, &opts, &|p| match p {
@@ -969,7 +1028,7 @@ fn solve(
     bar.finish_and_clear();
     report_estimates(method, &stats);
     if solved.matrix.storage == Storage::MatrixFree.name() {
-        eprintln!(
+        say!(
             "matrix-free: {} shots, {} rows made, {} kept ({:.0} MiB)",
             solved.solution.report.iterations,
             solved.matrix.rows_made,
@@ -984,7 +1043,7 @@ fn solve(
         );
     }
     let r = &solved.solution.report;
-    eprintln!(
+    say!(
         "{} after {} iterations, residual {:.1e}; energy imbalance {:.1e}",
         if r.converged {
             "converged"
@@ -996,5 +1055,62 @@ fn solve(
         solved.balance.relative_imbalance
     );
     let text = serde_json::to_string_pretty(&file).map_err(|e| e.to_string())?;
-    emit(Some(out), |w| w.write_all(text.as_bytes()))
+    emit(Some(out), |w| w.write_all(text.as_bytes()))?;
+    if !r.converged {
+        eprintln!(
+            "warning: the solve did not converge (residual {:.1e} after {} iterations); {} is written, the exit code is {EXIT_NOT_CONVERGED}",
+            r.residual,
+            r.iterations,
+            out.display()
+        );
+        NOT_CONVERGED.store(true, Ordering::Relaxed);
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn every_command_and_flag_has_help_text() {
+        let cmd = Cli::command();
+        cmd.clone().debug_assert();
+        let mut missing = Vec::new();
+        let check = |owner: &str, c: &clap::Command, missing: &mut Vec<String>| {
+            for a in c.get_arguments() {
+                let id = a.get_id().as_str();
+                if id != "help" && id != "version" && a.get_help().is_none() {
+                    missing.push(format!("{owner} {id}"));
+                }
+            }
+        };
+        check("coherad", &cmd, &mut missing);
+        for sub in cmd.get_subcommands() {
+            if sub.get_about().is_none() {
+                missing.push(format!("the command {}", sub.get_name()));
+            }
+            check(sub.get_name(), sub, &mut missing);
+        }
+        assert!(missing.is_empty(), "no help text: {missing:?}");
+    }
+
+    #[test]
+    fn the_version_names_the_git_revision() {
+        assert!(VERSION.starts_with(env!("CARGO_PKG_VERSION")));
+        assert!(VERSION.contains("(git "), "{VERSION}");
+    }
+
+    #[test]
+    fn reflectances_parse_or_are_refused_by_value() {
+        assert_eq!(parse_reflectance("0.25").unwrap().0, [0.25; 3]);
+        assert_eq!(
+            parse_reflectance("0.1, 0.2,0.3").unwrap().0,
+            [0.1, 0.2, 0.3]
+        );
+        for bad in ["1", "-0.1", "0.1,0.2", "x", "nan"] {
+            assert!(parse_reflectance(bad).is_err(), "{bad}");
+        }
+    }
 }

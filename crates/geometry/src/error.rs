@@ -37,6 +37,8 @@ pub enum PolygonProblem {
     ZeroPatchGrid { nu: u64, nv: u64 },
     #[error("has a patch grid of {nu} x {nv}, over the limit of {limit} cells a polygon")]
     PatchGridTooLarge { nu: u64, nv: u64, limit: u64 },
+    #[error("has a patch grid of {nu} x {nv} none of whose cells keeps any area once clipped to it: its outline is too thin or too irregular to be cut (a sliver, nearly concave at its scale); drop it or split it")]
+    EmptyTexture { nu: u64, nv: u64 },
     #[error("has no usable target patch size ({size}); give a finite size > 0 (--patch-size for OBJ files)")]
     BadPatchSize { size: f64 },
     #[error("names material {name:?}, which the scene does not define")]

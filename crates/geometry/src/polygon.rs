@@ -157,6 +157,11 @@ impl Polygon {
         };
         let (cell_patch, patches, uv_box, cu, cv) =
             patch_texture(&frame, &uv_vertices, parallelogram, nu32, nv32, first_patch);
+        if patches.is_empty() {
+            // Only an outline at the edge of the tolerances (a sliver whose slight
+            // concavity the convexity test forgives at its scale) leaves no cell with area.
+            return Err(PolygonProblem::EmptyTexture { nu, nv });
+        }
         let normal_f = normal.as_vec3();
 
         let e_u_f = e_u.as_vec3();
@@ -792,7 +797,9 @@ fn patch_texture(
             });
         }
     }
-    fill_empty_cells(&mut cell_patch, nu32, nv32);
+    if !patches.is_empty() {
+        fill_empty_cells(&mut cell_patch, nu32, nv32);
+    }
     (cell_patch, patches, uv_box, cu, cv)
 }
 
@@ -807,12 +814,32 @@ fn fill_empty_cells(cell_patch: &mut [PatchId], nu: u32, nv: u32) {
         Some((first, last))
     };
     let ranges: Vec<Option<(usize, usize)>> = (0..nv).map(|j| row_range(cell_patch, j)).collect();
+    // The nearest row with patches at or below each row, and at or above it (one pass
+    // each way, so that a grid of many rows costs linear time).
+    let mut below = vec![None; nv];
+    let mut last = None;
     for j in 0..nv {
-        // Nearest row with patches.
-        let src = (0..nv)
-            .filter(|&jj| ranges[jj].is_some())
-            .min_by_key(|&jj| (jj as i64 - j as i64).abs())
-            .expect("a valid polygon has at least one patch");
+        if ranges[j].is_some() {
+            last = Some(j);
+        }
+        below[j] = last;
+    }
+    let mut above = vec![None; nv];
+    let mut next = None;
+    for j in (0..nv).rev() {
+        if ranges[j].is_some() {
+            next = Some(j);
+        }
+        above[j] = next;
+    }
+    for j in 0..nv {
+        // Nearest row with patches, the lower on ties.
+        let src = match (below[j], above[j]) {
+            (Some(b), Some(a)) if j - b <= a - j => b,
+            (_, Some(a)) => a,
+            (Some(b), None) => b,
+            (None, None) => unreachable!("called only on a texture with patches"),
+        };
         let (first, last) = ranges[src].expect("filtered above");
         for i in 0..nu {
             if cell_patch[j * nu + i] == PatchId::MAX {

@@ -91,7 +91,7 @@ fn split_grid(face: &PolygonDesc) -> PatchGrid {
         PatchGrid::Size(s) => PatchGrid::Size(s),
         PatchGrid::Cells { nu, nv } => {
             let area = 0.5 * newell(&face.vertices).length();
-            PatchGrid::Size((area / (nu.max(1) * nv.max(1)) as f64).sqrt())
+            PatchGrid::Size((area / nu.max(1).saturating_mul(nv.max(1)) as f64).sqrt())
         }
     }
 }
@@ -108,16 +108,27 @@ fn newell(vertices: &[Vec3]) -> DVec3 {
         .sum()
 }
 
+/// Outlines up to this many vertices cut their fattest ear first; longer ones their
+/// first ear (quadratic rather than cubic).
+pub const BEST_EAR_VERTICES: usize = 64;
+
+/// Longest outline [`ear_clip`] splits.
+pub const MAX_EAR_CLIP_VERTICES: usize = 100_000;
+
 /// Ear clipping of a simple outline, projected on the plane of its Newell normal: the
 /// triangles as vertex indices, each turning the outline's way; `None` when no ear is
 /// left to cut before the end (an outline that crosses itself, or no area).
 ///
 /// An ear is a convex corner whose triangle holds no other remaining vertex (on its
-/// edges included); of the ears, the one whose triangle is the least thin is cut first,
-/// so that collinear runs are not cut into slivers while a better ear remains.
+/// edges included); of the ears, the one whose triangle is the least thin is cut first
+/// (outlines of up to [`BEST_EAR_VERTICES`]; the first ear found beyond), so that
+/// collinear runs are not cut into slivers while a better ear remains. The triangles'
+/// areas must add up to the outline's (within 1e-6), else `None`: an outline that
+/// crosses itself is refused, never mis-split. Outlines of over [`MAX_EAR_CLIP_VERTICES`]
+/// are refused too (ear clipping is quadratic).
 pub fn ear_clip(vertices: &[Vec3]) -> Option<Vec<[usize; 3]>> {
     let n = vertices.len();
-    if n < 3 {
+    if !(3..=MAX_EAR_CLIP_VERTICES).contains(&n) {
         return None;
     }
     let normal = newell(vertices);
@@ -175,6 +186,9 @@ pub fn ear_clip(vertices: &[Vec3]) -> Option<Vec<[usize; 3]>> {
             let quality = area2 / longest;
             if best.is_none_or(|(_, q)| quality > q) {
                 best = Some((k, quality));
+                if n > BEST_EAR_VERTICES {
+                    break;
+                }
             }
         }
         let (k, _) = best?;
@@ -184,7 +198,17 @@ pub fn ear_clip(vertices: &[Vec3]) -> Option<Vec<[usize; 3]>> {
     }
     if cross(pts[ring[0]], pts[ring[1]], pts[ring[2]]) > 0.0 {
         triangles.push([ring[0], ring[1], ring[2]]);
-    } else if triangles.is_empty() {
+    }
+    // The pieces must tile the outline: their areas add up to its own.
+    let outline = 0.5
+        * (0..n)
+            .map(|k| pts[k].perp_dot(pts[(k + 1) % n]))
+            .sum::<f64>();
+    let pieces: f64 = triangles
+        .iter()
+        .map(|t| 0.5 * cross(pts[t[0]], pts[t[1]], pts[t[2]]))
+        .sum();
+    if triangles.is_empty() || !((pieces - outline).abs() <= 1e-6 * outline.abs()) {
         return None;
     }
     Some(triangles)
@@ -321,6 +345,33 @@ mod tests {
                 "case {case}: {sum} vs {}",
                 area(&pts)
             );
+        }
+    }
+
+    #[test]
+    fn a_lopsided_self_crossing_outline_is_refused() {
+        // Lobes of 16/3 and 4/3: a nonzero Newell normal, but no tiling by ears.
+        let pts = [[0., 0.], [4., 4.], [4., 0.], [0., 2.]].map(|[x, y]| Vec3::new(x, y, 0.0));
+        assert_eq!(ear_clip(&pts), None);
+    }
+
+    #[test]
+    fn clockwise_and_tilted_outlines_split_their_own_way() {
+        // The L, wound clockwise (normal -z), then turned about an oblique axis.
+        let mut l = ell();
+        l.reverse();
+        let rot = glam::Quat::from_axis_angle(Vec3::new(1.0, 2.0, 3.0).normalize(), 1.1);
+        for pts in [l.clone(), l.iter().map(|&p| rot * p).collect::<Vec<_>>()] {
+            let n = newell(&pts);
+            let tris = ear_clip(&pts).unwrap();
+            assert_eq!(tris.len(), 4);
+            let mut sum = 0.0;
+            for t in &tris {
+                let tn = newell(&t.map(|i| pts[i]));
+                assert!(tn.dot(n) > 0.0, "a triangle turns the wrong way");
+                sum += 0.5 * tn.length();
+            }
+            assert!((sum - 3.0).abs() < 1e-5, "{sum}");
         }
     }
 

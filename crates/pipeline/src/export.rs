@@ -133,24 +133,38 @@ pub fn export(
         }
     }
     let scale = b.map(|b| exposure.map_or_else(|| auto_scale(b), |ev| 2f64.powf(ev)));
+    if let Some(s) = scale.filter(|s| !(s.is_finite() && *s > 0.0)) {
+        return Err(Error::Parse {
+            what: "exposure",
+            input: format!("{}", exposure.unwrap_or(f64::NAN)),
+            reason: format!("gives a colour scale of {s:e}; keep 2^EV within f64's range"),
+        });
+    }
     let meshes = build_meshes(&scene.scene, b, scale.unwrap_or(1.0));
     let vertices = meshes
         .values()
         .flat_map(|m| m.values())
         .map(|p| p.vertices.len())
         .sum();
-    let triangles = meshes
-        .values()
-        .flat_map(|m| m.values())
-        .flat_map(|p| &p.faces)
-        .map(|&(_, n)| n as usize - 2)
-        .sum();
+    let triangles = match format {
+        ExportFormat::Ply => meshes
+            .values()
+            .flat_map(|m| m.values())
+            .flat_map(|p| &p.faces)
+            .map(|&(_, n)| n as usize - 2)
+            .sum(),
+        _ => meshes
+            .values()
+            .flat_map(|m| m.values())
+            .map(|p| fan_indices(p).len() / 3)
+            .sum(),
+    };
     let bytes = match format {
         ExportFormat::Ply => ply_bytes(&meshes, b.is_some()),
         ExportFormat::Glb | ExportFormat::Gltf => {
             let (doc, bin) = gltf_document(&scene.scene, &meshes, b.is_some());
             if format == ExportFormat::Glb {
-                glb_bytes(&doc, &bin)
+                glb_bytes(&doc, &bin)?
             } else {
                 let mut doc = doc;
                 doc["buffers"][0]["uri"] = Value::String(format!(
@@ -221,6 +235,23 @@ fn patch_range(scene: &Scene, k: usize) -> (usize, usize) {
     (first, last)
 }
 
+/// A primitive's faces as triangle fans from their first vertex, leaving out the
+/// triangles no scene would take (collinear corners, slivers of clipping): they cover
+/// nothing, and an export reads back as a valid scene.
+fn fan_indices(prim: &Primitive) -> Vec<u32> {
+    let mut out = Vec::with_capacity(3 * prim.vertices.len());
+    for &(first, n) in &prim.faces {
+        for k in 1..n - 1 {
+            let t = [first, first + k, first + k + 1];
+            let corners = t.map(|i| prim.vertices[i as usize].p);
+            if rad_geometry::vertices_problem(&corners).is_none() {
+                out.extend(t);
+            }
+        }
+    }
+    out
+}
+
 /// The glTF JSON (its one buffer's URI left out) and the binary buffer.
 fn gltf_document(scene: &Scene, meshes: &Meshes, baked: bool) -> (Value, Vec<u8>) {
     let mut bin: Vec<u8> = Vec::new();
@@ -266,13 +297,7 @@ fn gltf_document(scene: &Scene, meshes: &Meshes, baked: bool) -> (Value, Vec<u8>
                 accessors.push(json!({"bufferView": col, "componentType": 5126, "count": count, "type": "VEC3"}));
                 attributes["COLOR_0"] = json!(accessors.len() - 1);
             }
-            let indices: Vec<u32> = prim
-                .faces
-                .iter()
-                .flat_map(|&(first, n)| {
-                    (1..n - 1).flat_map(move |k| [first, first + k, first + k + 1])
-                })
-                .collect();
+            let indices = fan_indices(prim);
             let idx_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
             let idx = view(&mut bin, &idx_bytes, 34963);
             accessors.push(json!({"bufferView": idx, "componentType": 5125, "count": indices.len(), "type": "SCALAR"}));
@@ -361,7 +386,7 @@ fn gltf_material(m: &rad_geometry::Material, baked: bool) -> Value {
 
 /// A GLB container: 12-byte header, the JSON chunk (padded with spaces), the BIN chunk
 /// (padded with zeros), each to 4 bytes.
-fn glb_bytes(doc: &Value, bin: &[u8]) -> Vec<u8> {
+fn glb_bytes(doc: &Value, bin: &[u8]) -> Result<Vec<u8>, Error> {
     let mut json = serde_json::to_vec(doc).expect("JSON values serialise");
     while json.len() % 4 != 0 {
         json.push(b' ');
@@ -371,6 +396,12 @@ fn glb_bytes(doc: &Value, bin: &[u8]) -> Vec<u8> {
         bin.push(0);
     }
     let total = 12 + 8 + json.len() + 8 + bin.len();
+    if total > u32::MAX as usize {
+        return Err(Error::Encode {
+            what: "glb",
+            reason: format!("{total} bytes, over GLB's 4 GiB; write .gltf, or fewer patches"),
+        });
+    }
     let mut out = Vec::with_capacity(total);
     out.extend_from_slice(b"glTF");
     out.extend_from_slice(&2u32.to_le_bytes());
@@ -381,7 +412,7 @@ fn glb_bytes(doc: &Value, bin: &[u8]) -> Vec<u8> {
     out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
     out.extend_from_slice(b"BIN\0");
     out.extend_from_slice(&bin);
-    out
+    Ok(out)
 }
 
 /// Most vertices a PLY face is written with (its count is a uchar); a larger face (a

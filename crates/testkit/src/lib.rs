@@ -1,5 +1,8 @@
 //! Test support (a dev-dependency only): proptest strategies for random valid scenes
-//! of convex polygons, and for rays through them.
+//! of convex polygons, and for rays through them; a mutation fuzzer for the scene-file
+//! parsers (`fuzz`).
+
+pub mod fuzz;
 
 use glam::Vec3;
 use proptest::prelude::*;

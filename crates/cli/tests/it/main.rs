@@ -836,3 +836,129 @@ fn a_ply_box_with_a_concave_face_and_a_material_file_solves_and_exports() {
     assert!(export.status.success() && err.contains("EV -2.00"), "{err}");
     assert_eq!(&std::fs::read(&glb).unwrap()[..4], b"glTF");
 }
+
+/// The long options listed under "Options:" in a `--help` text.
+fn flags_of(help: &str) -> Vec<String> {
+    let mut flags = Vec::new();
+    let mut in_options = false;
+    for line in help.lines() {
+        if line.starts_with("Options:") {
+            in_options = true;
+            continue;
+        }
+        if !line.starts_with(' ') {
+            in_options = false;
+        }
+        let t = line.trim_start();
+        if in_options && t.starts_with('-') {
+            if let Some(pos) = t.find("--") {
+                let flag: String = t[pos..]
+                    .chars()
+                    .take_while(|c| c.is_ascii_alphanumeric() || *c == '-')
+                    .collect();
+                if flag != "--help" && flag != "--version" {
+                    flags.push(flag);
+                }
+            }
+        }
+    }
+    flags
+}
+
+#[test]
+fn the_readme_lists_every_command_and_flag_that_help_does() {
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md"))
+            .unwrap();
+    let start = readme
+        .find("## The `coherad` tool")
+        .expect("the README's coherad section");
+    let section = &readme[start..];
+    let section = &section[..section[3..].find("\n## ").map_or(section.len(), |k| k + 3)];
+    let top = String::from_utf8(coherad(&["--help"]).stdout).unwrap();
+    let commands: Vec<String> = top
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| l.split_whitespace().next().map(str::to_string))
+        .filter(|c| c != "help")
+        .collect();
+    assert!(commands.len() >= 6, "{top}");
+    let global = flags_of(&top);
+    assert!(global.contains(&"--quiet".to_string()), "{global:?}");
+    for flag in &global {
+        assert!(
+            section.contains(flag.as_str()),
+            "README: the global flag {flag} is not documented"
+        );
+    }
+    for cmd in &commands {
+        let key = format!("- `{cmd} ");
+        let at = section
+            .find(&key)
+            .unwrap_or_else(|| panic!("README: no bullet for `{cmd}`"));
+        let bullet = &section[at..];
+        let bullet = &bullet[..bullet[1..].find("\n- `").map_or(bullet.len(), |k| k + 1)];
+        let help = String::from_utf8(coherad(&[cmd, "--help"]).stdout).unwrap();
+        for flag in flags_of(&help).iter().filter(|f| !global.contains(f)) {
+            assert!(
+                bullet.contains(flag.as_str()),
+                "README: `{cmd}`'s bullet does not mention {flag}"
+            );
+        }
+    }
+}
+
+#[test]
+fn exit_codes_tell_errors_usage_and_unconverged_solves_apart() {
+    let dir = tempfile::tempdir().unwrap();
+    assert_eq!(
+        coherad(&["patches", "/no/such/scene.json"]).status.code(),
+        Some(1)
+    );
+    assert_eq!(
+        coherad(&["patches", "--no-such-flag"]).status.code(),
+        Some(2)
+    );
+    assert_eq!(
+        coherad(&["--threads", "0", "patches", "x.json"])
+            .status
+            .code(),
+        Some(2)
+    );
+    let out = dir.path().join("s.json");
+    let cornell = bench_scene("cornell.json");
+    // Gauss-Seidel stopped after two sweeps, far from its tolerance.
+    let r = coherad(&[
+        "solve",
+        cornell.to_str().unwrap(),
+        "--resolution",
+        "30x120",
+        "--max-iterations",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(3), "{err}");
+    assert!(err.contains("did not converge") && out.exists(), "{err}");
+    let ok = coherad(&[
+        "--quiet",
+        "solve",
+        cornell.to_str().unwrap(),
+        "--resolution",
+        "30x120",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(ok.status.code(), Some(0));
+    assert!(
+        ok.stderr.is_empty(),
+        "--quiet: {}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let v = coherad(&["--version"]);
+    let text = String::from_utf8_lossy(&v.stdout);
+    assert!(v.status.success() && text.contains("(git "), "{text}");
+}

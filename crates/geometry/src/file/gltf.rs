@@ -50,8 +50,19 @@ pub fn load_gltf(
         path: path.to_path_buf(),
         source,
     })?;
-    let gltf =
-        gltf::Gltf::from_slice(&bytes).map_err(|e| err(path, format!("cannot parse glTF: {e}")))?;
+    gltf_from_bytes(path, &bytes, patch_size, reflectance, notes)
+}
+
+/// A glTF or GLB file in memory (see [`load_gltf`]); external buffers are read beside
+/// `path`, and errors name it.
+pub fn gltf_from_bytes(
+    path: &Path,
+    bytes: &[u8],
+    patch_size: f64,
+    reflectance: Option<Rgb>,
+    notes: &mut Vec<String>,
+) -> Result<SceneDesc, Error> {
+    let gltf = parse_document(path, bytes)?;
     let buffers = load_buffers(path, &gltf)?;
     let doc = &gltf.document;
     let mut materials = Vec::new();
@@ -81,7 +92,17 @@ pub fn load_gltf(
     let mut stack: Vec<(gltf::Node, Mat4, usize)> =
         scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
     stack.reverse();
+    let mut visited = vec![false; doc.nodes().len()];
     while let Some((node, parent, depth)) = stack.pop() {
+        if std::mem::replace(&mut visited[node.index()], true) {
+            return Err(err(
+                path,
+                format!(
+                    "node {} is reached twice (nodes must form trees)",
+                    node.index()
+                ),
+            ));
+        }
         if depth > MAX_NODE_DEPTH {
             return Err(err(
                 path,
@@ -118,6 +139,62 @@ pub fn load_gltf(
         return Err(err(path, "its scene has no triangles"));
     }
     Ok(desc)
+}
+
+/// The glTF document of `bytes` (JSON or GLB), validated by the `gltf` crate after
+/// the checks its validation skips.
+fn parse_document(path: &Path, bytes: &[u8]) -> Result<gltf::Gltf, Error> {
+    if bytes.starts_with(b"glTF") {
+        let word = |k: usize| {
+            bytes
+                .get(k..k + 4)
+                .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+        };
+        match (word(4), word(8)) {
+            (Some(2), Some(n)) if n as usize >= 20 && n as usize <= bytes.len() => {}
+            (Some(2), n) => {
+                return Err(err(
+                    path,
+                    format!(
+                    "GLB header gives a length of {n:?} bytes, but the file has {} (truncated?)",
+                    bytes.len()
+                ),
+                ))
+            }
+            (v, _) => {
+                return Err(err(
+                    path,
+                    format!("GLB version {v:?}: only version 2 is read"),
+                ))
+            }
+        }
+    }
+    let parse = |e: gltf::Error| err(path, format!("cannot parse glTF: {e}"));
+    let raw = gltf::Gltf::from_slice_without_validation(bytes).map_err(parse)?;
+    // gltf-json's validation indexes the accessors by every POSITION attribute before
+    // checking that index (a panic on a bad file): check it first.
+    let json = raw.document.as_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (k, prim) in mesh.primitives.iter().enumerate() {
+            for (semantic, index) in &prim.attributes {
+                if index.value() >= json.accessors.len() {
+                    return Err(err(
+                        path,
+                        format!(
+                            "mesh {m} primitive {k}: attribute {semantic:?} names accessor {}, but there are {}",
+                            index.value(),
+                            json.accessors.len()
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    let gltf = gltf::Gltf {
+        document: gltf::Document::from_json(raw.document.into_json()).map_err(parse)?,
+        blob: raw.blob,
+    };
+    Ok(gltf)
 }
 
 /// The scene material of a glTF material.
@@ -168,28 +245,15 @@ fn primitive_triangles(
 ) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), Error> {
     use gltf::mesh::Mode;
     let mode = prim.mode();
-    for (_, acc) in prim
-        .attributes()
-        .filter(|(s, _)| *s == gltf::Semantic::Positions)
-    {
-        if acc.sparse().is_some() {
-            return Err(err(
-                path,
-                format!("{place}: sparse position accessors are not supported"),
-            ));
-        }
-    }
-    if prim.indices().is_some_and(|a| a.sparse().is_some()) {
-        return Err(err(
-            path,
-            format!("{place}: sparse index accessors are not supported"),
-        ));
+    let positions_acc = prim
+        .get(&gltf::Semantic::Positions)
+        .ok_or_else(|| err(path, format!("{place} has no POSITION")))?;
+    check_accessor(path, &positions_acc, buffers, place, "POSITION", true)?;
+    if let Some(acc) = prim.indices() {
+        check_accessor(path, &acc, buffers, place, "indices", false)?;
     }
     let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
-    let expected = prim
-        .get(&gltf::Semantic::Positions)
-        .map(|a| a.count())
-        .ok_or_else(|| err(path, format!("{place} has no POSITION")))?;
+    let expected = positions_acc.count();
     let positions: Vec<Vec3> = reader
         .read_positions()
         .ok_or_else(|| {
@@ -233,25 +297,96 @@ fn primitive_triangles(
         None => (0..positions.len() as u32).collect(),
     };
     let triangles: Vec<[u32; 3]> = match mode {
+        Mode::Triangles if indices.len() % 3 != 0 => {
+            return Err(err(
+                path,
+                format!(
+                    "{place}: {} indices do not make whole triangles",
+                    indices.len()
+                ),
+            ))
+        }
         Mode::Triangles => indices
             .chunks_exact(3)
             .map(|t| [t[0], t[1], t[2]])
             .collect(),
-        Mode::TriangleStrip => (2..indices.len())
-            .map(|k| {
-                let t = [indices[k - 2], indices[k - 1], indices[k]];
-                if k % 2 == 1 {
-                    [t[1], t[0], t[2]]
-                } else {
-                    t
-                }
-            })
-            .collect(),
+        Mode::TriangleStrip => strip_triangles(&indices),
         _ => (2..indices.len())
             .map(|k| [indices[0], indices[k - 1], indices[k]])
             .collect(),
     };
     Ok((positions, triangles))
+}
+
+/// Checks that an accessor can be read as what it must be (POSITION: float VEC3, not
+/// normalised; indices: unsigned byte, short or int scalars), and that every element
+/// lies inside its buffer view and the view inside its buffer (the `gltf` crate's
+/// reader trusts both).
+fn check_accessor(
+    path: &Path,
+    acc: &gltf::Accessor,
+    buffers: &[Vec<u8>],
+    place: &str,
+    what: &str,
+    positions: bool,
+) -> Result<(), Error> {
+    use gltf::accessor::{DataType, Dimensions};
+    let fail = |m: String| {
+        Err(err(
+            path,
+            format!("{place}: {what} accessor {}: {m}", acc.index()),
+        ))
+    };
+    if acc.sparse().is_some() {
+        return fail("sparse accessors are not supported".into());
+    }
+    let (dt, dims) = (acc.data_type(), acc.dimensions());
+    let ok = if positions {
+        dt == DataType::F32 && dims == Dimensions::Vec3 && !acc.normalized()
+    } else {
+        matches!(dt, DataType::U8 | DataType::U16 | DataType::U32) && dims == Dimensions::Scalar
+    };
+    if !ok {
+        return fail(format!(
+            "is {dt:?} {dims:?}, not what the glTF specification allows here"
+        ));
+    }
+    let Some(view) = acc.view() else {
+        return fail("has no bufferView".into());
+    };
+    let count = acc.count();
+    if count == 0 {
+        return fail("has no elements".into());
+    }
+    let elem = dt.size() * dims.multiplicity();
+    let stride = view.stride().unwrap_or(elem);
+    if stride < elem {
+        return fail(format!(
+            "byteStride {stride} is under its element's {elem} bytes"
+        ));
+    }
+    let end = stride
+        .checked_mul(count - 1)
+        .and_then(|x| x.checked_add(acc.offset()))
+        .and_then(|x| x.checked_add(elem));
+    if end.is_none_or(|e| e > view.length()) {
+        return fail(format!(
+            "{count} elements do not fit its bufferView of {} bytes",
+            view.length()
+        ));
+    }
+    let data = buffers.get(view.buffer().index()).map_or(0, Vec::len);
+    if view
+        .offset()
+        .checked_add(view.length())
+        .is_none_or(|e| e > data)
+    {
+        return fail(format!(
+            "its bufferView {} lies outside its buffer of {data} bytes",
+            view.index()
+        ));
+    }
+    Ok(())
 }
 
 /// Every triangle of `mesh`'s primitives, transformed by `world`.
@@ -324,6 +459,21 @@ fn add_mesh(
     Ok(())
 }
 
+/// A triangle strip's triangles: the i-th is (v_i, v_i+1, v_i+2), its odd ones turned
+/// (v_i+1, v_i, v_i+2), so that all keep the strip's winding (glTF 2.0, 3.7.2.1).
+fn strip_triangles(indices: &[u32]) -> Vec<[u32; 3]> {
+    (2..indices.len())
+        .map(|k| {
+            let (a, b, c) = (indices[k - 2], indices[k - 1], indices[k]);
+            if k % 2 == 1 {
+                [b, a, c]
+            } else {
+                [a, b, c]
+            }
+        })
+        .collect()
+}
+
 /// The bytes of every buffer: the GLB's BIN chunk, a `data:` URI (base64) or a file
 /// beside the glTF.
 fn load_buffers(path: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>, Error> {
@@ -360,7 +510,10 @@ fn load_buffers(path: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>, Error> {
                         ),
                     ));
                 }
-                let file = path.parent().unwrap_or(Path::new(".")).join(uri);
+                let file = path
+                    .parent()
+                    .unwrap_or(Path::new("."))
+                    .join(percent_decode(uri));
                 std::fs::read(&file).map_err(|source| Error::Io { path: file, source })?
             }
         };
@@ -378,6 +531,31 @@ fn load_buffers(path: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>, Error> {
         out.push(data);
     }
     Ok(out)
+}
+
+/// A URI's %XX escapes decoded (an invalid escape is kept as it is).
+fn percent_decode(uri: &str) -> String {
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut k = 0;
+    while k < b.len() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        match (
+            b[k],
+            b.get(k + 1).copied().and_then(hex),
+            b.get(k + 2).copied().and_then(hex),
+        ) {
+            (b'%', Some(h), Some(l)) => {
+                out.push((h * 16 + l) as u8);
+                k += 3;
+            }
+            (c, _, _) => {
+                out.push(c);
+                k += 1;
+            }
+        }
+    }
+    String::from_utf8_lossy(&out).into_owned()
 }
 
 /// Standard base64 (RFC 4648, with or without padding); `None` on any other character.
@@ -403,4 +581,31 @@ pub(crate) fn decode_base64(text: &str) -> Option<Vec<u8>> {
         }
     }
     Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_strip_keeps_its_winding() {
+        // A quad strip: (0,0) (1,0) (0,1) (1,1); both triangles counter-clockwise.
+        let p = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]];
+        let tris = strip_triangles(&[0, 1, 2, 3]);
+        assert_eq!(tris.len(), 2);
+        for [a, b, c] in tris {
+            let (a, b, c) = (p[a as usize], p[b as usize], p[c as usize]);
+            let z = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+            assert!(z > 0.0, "{a:?} {b:?} {c:?}");
+        }
+    }
+
+    #[test]
+    fn base64_and_percent_escapes_decode() {
+        assert_eq!(decode_base64("aGVsbG8=").unwrap(), b"hello");
+        assert_eq!(decode_base64("aGVsbG8").unwrap(), b"hello");
+        assert!(decode_base64("a$b").is_none());
+        assert_eq!(percent_decode("my%20mesh.bin"), "my mesh.bin");
+        assert_eq!(percent_decode("100%"), "100%");
+    }
 }

@@ -63,15 +63,24 @@ struct Bounds {
 /// Applies the material side file at `map_path` to `desc`; returns one note a rule (how
 /// many faces it took).
 pub fn apply_material_map(desc: &mut SceneDesc, map_path: &Path) -> Result<Vec<String>, Error> {
-    let fail = |message: String| Error::MaterialFile {
-        path: map_path.to_path_buf(),
-        message,
-    };
     let text = std::fs::read_to_string(map_path).map_err(|source| Error::Io {
         path: map_path.to_path_buf(),
         source,
     })?;
-    let map: MapFile = serde_json::from_str(&text).map_err(|e| Error::Json {
+    apply_material_text(desc, &text, map_path)
+}
+
+/// A material side file's text (see [`apply_material_map`]); errors name `map_path`.
+pub fn apply_material_text(
+    desc: &mut SceneDesc,
+    text: &str,
+    map_path: &Path,
+) -> Result<Vec<String>, Error> {
+    let fail = |message: String| Error::MaterialFile {
+        path: map_path.to_path_buf(),
+        message,
+    };
+    let map: MapFile = serde_json::from_str(text).map_err(|e| Error::Json {
         path: map_path.to_path_buf(),
         line: e.line(),
         column: e.column(),

@@ -78,44 +78,69 @@ pub fn load_stl(
     patch_size: f64,
     reflectance: Option<Rgb>,
 ) -> Result<SceneDesc, Error> {
-    let mut file = open(path)?;
-    let bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
-    let mut head = [0u8; 84];
-    use std::io::{Read, Seek};
-    let got = file.read(&mut head).map_err(|source| Error::Io {
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    let ascii = head[..got.min(5)].eq_ignore_ascii_case(b"solid")
-        && !(got == 84
-            && 84 + 50 * u64::from(u32::from_le_bytes([head[80], head[81], head[82], head[83]]))
-                == bytes);
+    stl_from_bytes(path, &bytes, patch_size, reflectance)
+}
+
+/// An STL file in memory (see [`load_stl`]); errors name `path`.
+pub fn stl_from_bytes(
+    path: &Path,
+    bytes: &[u8],
+    patch_size: f64,
+    reflectance: Option<Rgb>,
+) -> Result<SceneDesc, Error> {
+    let len = bytes.len() as u64;
+    let declared = (bytes.len() >= 84).then(|| {
+        u64::from(u32::from_le_bytes([
+            bytes[80], bytes[81], bytes[82], bytes[83],
+        ]))
+    });
+    let binary_size = declared.map(|n| 84 + 50 * n);
+    let ascii =
+        bytes.len() >= 5 && bytes[..5].eq_ignore_ascii_case(b"solid") && binary_size != Some(len);
     if !ascii {
-        if got < 84 {
+        let Some(size) = binary_size else {
             return Err(mesh_err(
                 path,
                 "STL",
-                format!("is {bytes} bytes long: a binary STL file has an 84-byte header"),
+                format!("is {len} bytes long: a binary STL file has an 84-byte header"),
             ));
-        }
-        let count = u64::from(u32::from_le_bytes([head[80], head[81], head[82], head[83]]));
-        if 84 + 50 * count != bytes {
+        };
+        if size != len {
             return Err(mesh_err(
                 path,
                 "STL",
-                format!("binary STL header gives {count} facets, which take {} bytes, but the file has {bytes} (truncated, or not an STL file)", 84 + 50 * count),
+                format!(
+                    "binary STL header gives {} facets, which take {size} bytes, but the file has {len} (truncated, or not an STL file)",
+                    declared.unwrap_or(0)
+                ),
             ));
         }
     }
-    file.rewind().map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let reader = stl_io::create_stl_reader(&mut file)
-        .map_err(|e| mesh_err(path, "STL", format!("cannot parse STL: {e}")))?;
     let mut mesh = MeshBuilder::new(patch_size, reflectance);
     let group = stem(path);
-    for (k, tri) in reader.enumerate() {
+    if !ascii {
+        // Binary: 50 bytes a facet (normal, three vertices, attribute), the size checked.
+        for (k, rec) in bytes[84..].chunks_exact(50).enumerate() {
+            let f = |i: usize| f32::from_le_bytes([rec[i], rec[i + 1], rec[i + 2], rec[i + 3]]);
+            let vertices = (0..3)
+                .map(|v| Vec3::new(f(12 + 12 * v), f(16 + 12 * v), f(20 + 12 * v)))
+                .collect();
+            mesh.face(format!("{group}/facet {k}"), vertices, 0, &group);
+        }
+        return Ok(mesh.desc);
+    }
+    // ASCII, through stl_io, whose reader wants the file to open with "solid " exactly:
+    // give it that whatever the case and spacing of ours.
+    let mut text = b"solid ".to_vec();
+    text.extend_from_slice(&bytes[5..]);
+    let mut reader = std::io::Cursor::new(text);
+    let triangles = stl_io::create_stl_reader(&mut reader)
+        .map_err(|e| mesh_err(path, "STL", format!("cannot parse ASCII STL: {e}")))?;
+    for (k, tri) in triangles.enumerate() {
         let tri = tri.map_err(|e| mesh_err(path, "STL", format!("facet {k}: {e}")))?;
         let vertices = tri.vertices.iter().map(|v| Vec3::from_array(v.0)).collect();
         mesh.face(format!("{group}/facet {k}"), vertices, 0, &group);
@@ -222,9 +247,19 @@ pub fn load_ply(
     patch_size: f64,
     reflectance: Option<Rgb>,
 ) -> Result<SceneDesc, Error> {
+    ply_from_reader(path, open(path)?, patch_size, reflectance)
+}
+
+/// A PLY file from any reader (see [`load_ply`]); errors name `path`.
+pub fn ply_from_reader<R: std::io::Read>(
+    path: &Path,
+    source: R,
+    patch_size: f64,
+    reflectance: Option<Rgb>,
+) -> Result<SceneDesc, Error> {
     use ply_rs_bw::parser::{Parser, Reader};
     let err = |m: String| mesh_err(path, "PLY", m);
-    let mut reader = Reader::new(open(path)?);
+    let mut reader = Reader::new(std::io::BufReader::new(source));
     let header = Parser::<PlyIgnored>::new()
         .read_header(&mut reader)
         .map_err(|e| err(format!("cannot parse the PLY header: {e}")))?;

@@ -31,6 +31,45 @@ pub fn load_obj(
     };
     let (models, mtl) =
         tobj::load_obj(path, &options).map_err(|e| obj_err(format!("cannot parse OBJ: {e}")))?;
+    obj_desc(path, &models, mtl, patch_size, reflectance)
+}
+
+/// OBJ text in memory (no MTL library is read: a `mtllib` line is an error), for
+/// in-memory callers and the fuzz harness; errors name `path`.
+pub fn obj_from_bytes(
+    path: &Path,
+    bytes: &[u8],
+    patch_size: f64,
+    reflectance: Option<Rgb>,
+) -> Result<SceneDesc, Error> {
+    let options = tobj::LoadOptions {
+        triangulate: false,
+        single_index: false,
+        ..Default::default()
+    };
+    let mut reader = std::io::Cursor::new(bytes);
+    let (models, mtl) = tobj::load_obj_buf(&mut reader, &options, |_| {
+        Err(tobj::LoadError::OpenFileFailed)
+    })
+    .map_err(|e| Error::Obj {
+        path: path.to_path_buf(),
+        message: format!("cannot parse OBJ: {e}"),
+    })?;
+    obj_desc(path, &models, mtl, patch_size, reflectance)
+}
+
+/// The scene of tobj's models and materials.
+fn obj_desc(
+    path: &Path,
+    models: &[tobj::Model],
+    mtl: Result<Vec<tobj::Material>, tobj::LoadError>,
+    patch_size: f64,
+    reflectance: Option<Rgb>,
+) -> Result<SceneDesc, Error> {
+    let obj_err = |message: String| Error::Obj {
+        path: path.to_path_buf(),
+        message,
+    };
     let obj_materials = mtl.map_err(|e| obj_err(format!("cannot load its MTL: {e}")))?;
     let mut materials: Vec<Material> = obj_materials
         .iter()
@@ -42,7 +81,7 @@ pub fn load_obj(
         .collect();
     let mut default_material = None;
     let mut polygons = Vec::new();
-    for model in &models {
+    for model in models {
         let mesh = &model.mesh;
         let n_faces = if mesh.face_arities.is_empty() {
             mesh.indices.len() / 3

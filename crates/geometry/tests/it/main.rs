@@ -2,6 +2,7 @@
 
 mod errors;
 mod frames;
+mod fuzz;
 mod meshes;
 mod props;
 mod scenes;

@@ -218,7 +218,7 @@ fn truncated_and_malformed_mesh_files_are_refused_by_name() {
     let cases: Vec<(&str, Vec<u8>, &str)> = vec![
         ("cut.stl", stl_bytes(&tris, false)[..1000].to_vec(), "truncated"),
         ("short.stl", b"abc".to_vec(), "84-byte header"),
-        ("cut.ply", ply_bytes(&tris, "binary_little_endian")[..600].to_vec(), "PLY"),
+        ("cut.ply", ply_bytes(&tris, "binary_little_endian")[..600].to_vec(), "(PLY): element"),
         ("noface.ply", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n".to_vec(), "no face element"),
         ("badindex.ply", b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n".to_vec(), "vertex index 7"),
         ("garbage.ply", b"not a ply file at all".to_vec(), "PLY"),
@@ -235,6 +235,31 @@ fn truncated_and_malformed_mesh_files_are_refused_by_name() {
             Err(e) => e.to_string(),
         };
         assert!(msg.contains(name) && msg.contains(expect), "{name}: {msg}");
+    }
+}
+
+#[test]
+fn stl_headers_that_fool_a_first_word_test_are_read_right() {
+    let tris = blob_triangles()[..20].to_vec();
+    let dir = tempfile::tempdir().unwrap();
+    let reference = scene_of(
+        &write(dir.path(), "r.stl", &stl_bytes(&tris, false)),
+        &options(0.5),
+    );
+    // A binary file whose 80-byte header begins "solid" (some exporters write that).
+    let mut binary = stl_bytes(&tris, false);
+    binary[..11].copy_from_slice(b"solid exprt");
+    // ASCII files opening "solid" with no name, or in capitals.
+    let ascii = String::from_utf8(stl_bytes(&tris, true)).unwrap();
+    let bare = ascii.replacen("solid blob", "solid", 1);
+    let caps = ascii.replacen("solid blob", "SOLID BLOB", 1);
+    for (name, bytes) in [
+        ("b.stl", binary),
+        ("bare.stl", bare.into_bytes()),
+        ("caps.stl", caps.into_bytes()),
+    ] {
+        let scene = scene_of(&write(dir.path(), name, &bytes), &options(0.5));
+        assert!(patch_bits(&scene) == patch_bits(&reference), "{name}");
     }
 }
 
@@ -330,6 +355,42 @@ fn gltf_meshes_are_placed_by_their_nodes_with_materials_and_the_camera() {
         "{cam:?}"
     );
     assert!((cam.fov_y - 0.8).abs() < 1e-7);
+    // What the gltf crate would trust blindly is refused by name: float indices, a
+    // stride shorter than a position, a node reached twice, a GLB header too short.
+    for (from, to, expect) in [
+        (
+            "\"componentType\": 5123",
+            "\"componentType\": 5126",
+            "indices accessor 1: is F32 Scalar",
+        ),
+        (
+            "\"byteOffset\": 0, \"byteLength\": 48}",
+            "\"byteOffset\": 0, \"byteLength\": 48, \"byteStride\": 4}",
+            "byteStride 4",
+        ),
+        ("\"count\": 6", "\"count\": 600", "600 elements do not fit"),
+        (
+            "\"nodes\": [0, 1]",
+            "\"nodes\": [0, 1, 0]",
+            "node 0 is reached twice",
+        ),
+    ] {
+        let text = gltf_quad(material).replace(from, to);
+        assert_ne!(text, gltf_quad(material), "{from}");
+        let bad = write(dir.path(), "bad.gltf", text.as_bytes());
+        let msg = load(&bad, &options(0.5)).unwrap_err().to_string();
+        assert!(
+            msg.contains("bad.gltf") && msg.contains(expect),
+            "{expect}: {msg}"
+        );
+    }
+    let glb = write(
+        dir.path(),
+        "short.glb",
+        b"glTF\x02\x00\x00\x00\x05\x00\x00\x00",
+    );
+    let msg = load(&glb, &options(0.5)).unwrap_err().to_string();
+    assert!(msg.contains("GLB header"), "{msg}");
     // Cut short, the buffer is refused by name.
     let text = gltf_quad(material).replace("\"byteLength\": 60", "\"byteLength\": 600");
     let short = write(dir.path(), "short.gltf", text.as_bytes());
