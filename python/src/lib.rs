@@ -1,0 +1,347 @@
+//! `coherad._native`: the Rust half of the Python package (PyO3). Scenes load through
+//! `rad_pipeline::SceneFile`, rows, view factors and solves run through the pipeline as
+//! the `coherad` binary runs them, with the GIL released; arrays cross as little-endian
+//! bytes that `coherad/__init__.py` wraps in numpy and scipy. Errors are
+//! `coherad.CoheradError` with the binary's messages.
+
+use pyo3::create_exception;
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+use rad_pipeline::solve::{solve_scene, SolveOptions};
+use rad_pipeline::viewfactors::{view_factors, Grouping, ViewFactorOptions};
+use rad_pipeline::{
+    CasterKind, Enclosure, Hemisphere, HemisphereConfig, LoadOptions, Mode, Rgb, RowMethod,
+    SceneFile, Solver,
+};
+use std::path::PathBuf;
+
+create_exception!(
+    _native,
+    CoheradError,
+    PyException,
+    "An error from coherad: a bad file, a bad value; the message names what and where."
+);
+
+fn fail(e: impl std::fmt::Display) -> PyErr {
+    CoheradError::new_err(e.to_string())
+}
+
+/// A loaded, validated scene.
+#[pyclass(module = "coherad._native", frozen)]
+struct Scene {
+    file: SceneFile,
+}
+
+/// Little-endian bytes of a slice of plain numbers.
+fn bytes_of<T: Copy, const N: usize>(py: Python<'_>, v: &[T], to: fn(T) -> [u8; N]) -> Py<PyBytes> {
+    let mut out = Vec::with_capacity(v.len() * N);
+    for &x in v {
+        out.extend_from_slice(&to(x));
+    }
+    PyBytes::new(py, &out).unbind()
+}
+
+/// The row method of `method` ("exact", "estimated", "estimated/faithful",
+/// "estimated/improved") through `caster` (default: the fastest for the scene).
+fn row_method(scene: &SceneFile, method: &str, caster: Option<&str>) -> PyResult<RowMethod> {
+    let caster = match caster {
+        Some(c) => c.parse::<CasterKind>().map_err(fail)?,
+        None => CasterKind::fastest_for(scene.scene.polygons().len()),
+    };
+    match method {
+        "exact" => Ok(RowMethod::Exact { caster }),
+        "estimated" | "estimated/improved" => Ok(RowMethod::Estimated {
+            mode: Mode::Improved,
+            centres: caster,
+        }),
+        "estimated/faithful" => Ok(RowMethod::Estimated {
+            mode: Mode::Faithful,
+            centres: caster,
+        }),
+        _ => Err(fail(format!(
+            "method {method:?}: expected \"exact\", \"estimated\", \"estimated/faithful\" or \"estimated/improved\""
+        ))),
+    }
+}
+
+fn hemisphere((nt, np): (u32, u32)) -> PyResult<Hemisphere> {
+    Hemisphere::new(HemisphereConfig::exact(nt, np)).map_err(fail)
+}
+
+#[pymethods]
+impl Scene {
+    /// The file it was loaded from.
+    #[getter]
+    fn path(&self) -> String {
+        self.file.path.display().to_string()
+    }
+    /// Its fingerprint, as solution files record it.
+    #[getter]
+    fn scene_hash(&self) -> String {
+        self.file.hash_text()
+    }
+    #[getter]
+    fn n_patches(&self) -> usize {
+        self.file.scene.patches().len()
+    }
+    #[getter]
+    fn n_polygons(&self) -> usize {
+        self.file.scene.polygons().len()
+    }
+    /// Warnings and notes from loading (what `--triangulate` did, clamped values).
+    #[getter]
+    fn notes(&self) -> Vec<String> {
+        let t = &self.file.triangulation;
+        let mut out = Vec::new();
+        if t.split > 0 {
+            out.push(format!(
+                "split {} concave or warped faces into {} triangles",
+                t.split, t.triangles
+            ));
+        }
+        if t.dropped > 0 {
+            out.push(format!(
+                "dropped {} degenerate faces or pieces (first: {})",
+                t.dropped,
+                t.first_dropped.as_deref().unwrap_or("?")
+            ));
+        }
+        out.extend(self.file.notes.iter().cloned());
+        out
+    }
+
+    /// The patches as bytes: centre (f32 × 3), normal (f32 × 3), area (f64), polygon (u32).
+    fn patches_raw(&self, py: Python<'_>) -> (Py<PyBytes>, Py<PyBytes>, Py<PyBytes>, Py<PyBytes>) {
+        let p = self.file.scene.patches();
+        let centre: Vec<f32> = p.iter().flat_map(|x| x.center.to_array()).collect();
+        let normal: Vec<f32> = p.iter().flat_map(|x| x.normal.to_array()).collect();
+        let area: Vec<f64> = p.iter().map(|x| x.area).collect();
+        let polygon: Vec<u32> = p.iter().map(|x| x.polygon).collect();
+        (
+            bytes_of(py, &centre, f32::to_le_bytes),
+            bytes_of(py, &normal, f32::to_le_bytes),
+            bytes_of(py, &area, f64::to_le_bytes),
+            bytes_of(py, &polygon, u32::to_le_bytes),
+        )
+    }
+
+    /// Form-factor rows as CSR bytes: (rows asked for as u32, indptr as i64, column
+    /// indices as u32, values as f64, back and escaped form factor per row as f64).
+    #[pyo3(signature = (resolution = (180, 720), method = "exact", caster = None, patches = None))]
+    #[allow(clippy::type_complexity)]
+    fn form_factors_raw(
+        &self,
+        py: Python<'_>,
+        resolution: (u32, u32),
+        method: &str,
+        caster: Option<&str>,
+        patches: Option<Vec<u32>>,
+    ) -> PyResult<(
+        Py<PyBytes>,
+        Py<PyBytes>,
+        Py<PyBytes>,
+        Py<PyBytes>,
+        Py<PyBytes>,
+        Py<PyBytes>,
+    )> {
+        let method = row_method(&self.file, method, caster)?;
+        let hemi = hemisphere(resolution)?;
+        let n = self.file.scene.patches().len() as u32;
+        let ids: Vec<u32> = patches.unwrap_or_else(|| (0..n).collect());
+        if let Some(bad) = ids.iter().find(|&&p| p >= n) {
+            return Err(fail(format!(
+                "patch {bad} is out of range: the scene has {n} patches"
+            )));
+        }
+        let scene = &self.file.scene;
+        let made = py
+            .detach(|| rad_pipeline::rows(scene, &hemi, method, &ids, &|_| {}))
+            .map_err(fail)?;
+        let mut indptr = Vec::with_capacity(made.rows.len() + 1);
+        let (mut cols, mut vals) = (Vec::new(), Vec::new());
+        let (mut back, mut escaped) = (Vec::new(), Vec::new());
+        indptr.push(0i64);
+        for row in &made.rows {
+            for &(j, f) in &row.entries {
+                cols.push(j);
+                vals.push(f);
+            }
+            indptr.push(cols.len() as i64);
+            back.push(row.back);
+            escaped.push(row.escaped);
+        }
+        Ok((
+            bytes_of(py, &ids, u32::to_le_bytes),
+            bytes_of(py, &indptr, i64::to_le_bytes),
+            bytes_of(py, &cols, u32::to_le_bytes),
+            bytes_of(py, &vals, f64::to_le_bytes),
+            bytes_of(py, &back, f64::to_le_bytes),
+            bytes_of(py, &escaped, f64::to_le_bytes),
+        ))
+    }
+
+    /// Surface view factors: (names, the dense matrix as f64 bytes row by row, areas,
+    /// a dict of the enclosure report).
+    #[pyo3(signature = (by = "polygon", origins = None, enclosure = "raw", resolution = (180, 720), caster = None))]
+    fn view_factors_raw(
+        &self,
+        py: Python<'_>,
+        by: &str,
+        origins: Option<u32>,
+        enclosure: &str,
+        resolution: (u32, u32),
+        caster: Option<&str>,
+    ) -> PyResult<(Vec<String>, Py<PyBytes>, Py<PyBytes>, Py<PyDict>)> {
+        let scene = &self.file.scene;
+        let mut opts = ViewFactorOptions::for_scene(scene);
+        opts.by = match by {
+            "patch" => Grouping::Patch,
+            "polygon" => Grouping::Polygon,
+            "group" => Grouping::Group,
+            _ => {
+                return Err(fail(format!(
+                    "by {by:?}: expected \"patch\", \"polygon\" or \"group\""
+                )))
+            }
+        };
+        opts.enclosure = match enclosure {
+            "raw" => Enclosure::Raw,
+            "reciprocal" => Enclosure::Reciprocal,
+            "closed" => Enclosure::Closed,
+            _ => {
+                return Err(fail(format!(
+                    "enclosure {enclosure:?}: expected \"raw\", \"reciprocal\" or \"closed\""
+                )))
+            }
+        };
+        if let Some(o) = origins {
+            opts.origins = o;
+        }
+        if let Some(c) = caster {
+            opts.caster = c.parse::<CasterKind>().map_err(fail)?;
+        }
+        let hemi = hemisphere(resolution)?;
+        let vf = py
+            .detach(|| view_factors(scene, &hemi, &opts, &|_| {}))
+            .map_err(fail)?;
+        let n = vf.names.len();
+        let mut dense = vec![0.0f64; n * n];
+        for (i, row) in vf.matrix.rows.iter().enumerate() {
+            for &(j, f) in row {
+                dense[i * n + j as usize] = f;
+            }
+        }
+        let report = PyDict::new(py);
+        let r = &vf.report;
+        report.set_item("enclosure", opts.enclosure.name())?;
+        report.set_item("origins", opts.origins)?;
+        report.set_item("max_row_sum_error", r.fixed.row_sum.max)?;
+        report.set_item("max_reciprocity_error", r.fixed.reciprocity.max)?;
+        report.set_item("raw_max_row_sum_error", r.raw.row_sum.max)?;
+        report.set_item("raw_max_reciprocity_error", r.raw.reciprocity.max)?;
+        report.set_item("escaped", vf.escaped.clone())?;
+        report.set_item("back", vf.back.clone())?;
+        Ok((
+            vf.names.clone(),
+            bytes_of(py, &dense, f64::to_le_bytes),
+            bytes_of(py, &vf.matrix.area, f64::to_le_bytes),
+            report.unbind(),
+        ))
+    }
+
+    /// Radiosity of every patch, as `coherad solve` computes it: (f64 × 3 bytes a patch,
+    /// a dict of the solver's report).
+    #[pyo3(signature = (resolution = (180, 720), method = "exact", caster = None, solver = "gauss-seidel", tolerance = None, reciprocal = true))]
+    #[allow(clippy::too_many_arguments)]
+    fn solve_raw(
+        &self,
+        py: Python<'_>,
+        resolution: (u32, u32),
+        method: &str,
+        caster: Option<&str>,
+        solver: &str,
+        tolerance: Option<f64>,
+        reciprocal: bool,
+    ) -> PyResult<(Py<PyBytes>, Py<PyDict>)> {
+        let method = row_method(&self.file, method, caster)?;
+        let hemi = hemisphere(resolution)?;
+        let mut opts = SolveOptions {
+            solver: match solver {
+                "gauss-seidel" => Solver::GaussSeidel,
+                "progressive" => Solver::Progressive,
+                _ => {
+                    return Err(fail(format!(
+                        "solver {solver:?}: expected \"gauss-seidel\" or \"progressive\""
+                    )))
+                }
+            },
+            reciprocal,
+            ..SolveOptions::default()
+        };
+        if let Some(t) = tolerance {
+            if !(t.is_finite() && t > 0.0) {
+                return Err(fail(format!("tolerance must be finite and > 0, not {t}")));
+            }
+            opts.config.tolerance = t;
+            opts.matrix_free.tolerance = t;
+        }
+        let file = &self.file;
+        let (solution, solved, _) = py
+            .detach(|| solve_scene(file, &hemi, method, &opts, &|_| {}))
+            .map_err(fail)?;
+        let flat: Vec<f64> = solution.radiosity.iter().flatten().copied().collect();
+        let report = PyDict::new(py);
+        let r = &solved.solution.report;
+        report.set_item("converged", r.converged)?;
+        report.set_item("iterations", r.iterations)?;
+        report.set_item("residual", r.residual)?;
+        report.set_item("relative_imbalance", solved.balance.relative_imbalance)?;
+        report.set_item("storage", solved.matrix.storage.to_string())?;
+        Ok((bytes_of(py, &flat, f64::to_le_bytes), report.unbind()))
+    }
+}
+
+/// Loads and validates a scene file (any format the `coherad` binary reads).
+#[pyfunction]
+#[pyo3(signature = (path, patch_size = None, triangulate = false, reflectance = None, materials = None))]
+fn load(
+    py: Python<'_>,
+    path: PathBuf,
+    patch_size: Option<f64>,
+    triangulate: bool,
+    reflectance: Option<Vec<f64>>,
+    materials: Option<PathBuf>,
+) -> PyResult<Scene> {
+    let reflectance = match reflectance.as_deref() {
+        None => None,
+        Some(&[r]) => Some(Rgb([r; 3])),
+        Some(&[r, g, b]) => Some(Rgb([r, g, b])),
+        Some(v) => return Err(fail(format!("reflectance {v:?}: give 1 or 3 values"))),
+    };
+    if let Some(r) = reflectance.filter(|r| !r.0.iter().all(|c| (0.0..1.0).contains(c))) {
+        return Err(fail(format!(
+            "reflectance {:?}: each value must be in [0, 1)",
+            r.0
+        )));
+    }
+    let options = LoadOptions {
+        patch_size,
+        triangulate,
+        reflectance,
+        materials,
+    };
+    let file = py
+        .detach(|| SceneFile::load_with(&path, &options))
+        .map_err(fail)?;
+    Ok(Scene { file })
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Scene>()?;
+    m.add_function(wrap_pyfunction!(load, m)?)?;
+    m.add("CoheradError", m.py().get_type::<CoheradError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
