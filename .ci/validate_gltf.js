@@ -1,5 +1,5 @@
 // Validates glTF files with the Khronos glTF validator (npm package gltf-validator):
-// prints each file's counts and exits 1 if any has an error.
+// prints each file's counts and exits 1 if any has an error or a warning.
 // Usage: node .ci/validate_gltf.js FILE.glb|FILE.gltf ...
 const fs = require("fs");
 const path = require("path");
@@ -24,7 +24,7 @@ async function main() {
     for (const m of i.messages.filter((m) => m.severity <= 1).slice(0, 20)) {
       console.log(`  ${m.severity === 0 ? "error" : "warning"} ${m.code} at ${m.pointer || ""}: ${m.message}`);
     }
-    if (i.numErrors > 0) failed = true;
+    if (i.numErrors > 0 || i.numWarnings > 0) failed = true;
   }
   process.exit(failed ? 1 : 0);
 }

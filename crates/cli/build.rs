@@ -17,13 +17,22 @@ fn main() {
         _ => "unknown".to_string(),
     };
     println!("cargo:rustc-env=COHERAD_GIT_REVISION={revision}");
-    // Rebuilt when HEAD moves (a commit, a checkout).
+    // Rebuilt when HEAD moves (a commit, a checkout): HEAD, the branch's ref (loose,
+    // in the common directory of a worktree, or packed). Only files that exist are
+    // named: cargo takes a missing one as changed, and would rerun on every build.
+    let mut watch = Vec::new();
     if let Some(dir) = git(&["rev-parse", "--git-dir"]) {
-        for f in ["HEAD"] {
-            println!("cargo:rerun-if-changed={dir}/{f}");
-        }
+        watch.push(format!("{dir}/HEAD"));
+    }
+    if let Some(common) = git(&["rev-parse", "--git-common-dir"]) {
+        watch.push(format!("{common}/packed-refs"));
         if let Some(head) = git(&["symbolic-ref", "-q", "HEAD"]) {
-            println!("cargo:rerun-if-changed={dir}/{head}");
+            watch.push(format!("{common}/{head}"));
+        }
+    }
+    for path in watch {
+        if std::path::Path::new(&path).exists() {
+            println!("cargo:rerun-if-changed={path}");
         }
     }
     println!("cargo:rerun-if-changed=build.rs");

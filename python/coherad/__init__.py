@@ -24,16 +24,19 @@ __version__ = _native.__version__
 
 
 def _array(raw, dtype, shape=None):
-    a = np.frombuffer(raw, dtype=np.dtype(dtype).newbyteorder("<"))
+    # A copy in native byte order: writable, and owning its memory.
+    a = np.frombuffer(raw, dtype=np.dtype(dtype).newbyteorder("<")).astype(dtype, copy=True)
     return a.reshape(shape) if shape is not None else a
 
 
 def _resolution(resolution):
     try:
-        nt, np_ = resolution
-        return (int(nt), int(np_))
+        nt, np_ = (int(r) for r in resolution)
     except (TypeError, ValueError):
         raise CoheradError(f"resolution {resolution!r}: give (n_theta, n_phi), e.g. (180, 720)")
+    if not (0 < nt < 2**32 and 0 < np_ < 2**32):
+        raise CoheradError(f"resolution {resolution!r}: both counts must be positive")
+    return (nt, np_)
 
 
 class Scene:
@@ -90,6 +93,9 @@ class Scene:
         factor of rays that met a polygon from behind or left the scene."""
         if patches is not None:
             patches = [int(p) for p in patches]
+            bad = [p for p in patches if not 0 <= p < self.n_patches]
+            if bad:
+                raise CoheradError(f"patch {bad[0]} is out of range: the scene has {self.n_patches} patches")
         ids, indptr, cols, vals, back, escaped = self._s.form_factors_raw(
             _resolution(resolution), method, caster, patches)
         ids = _array(ids, np.uint32)
@@ -101,15 +107,19 @@ class Scene:
             return m, (_array(back, np.float64), _array(escaped, np.float64))
         return m
 
-    def view_factors(self, by="polygon", origins=None, enclosure="raw", resolution=(180, 720),
-                     caster=None, with_report=False):
+    def view_factors(self, by=None, origins=None, enclosure=None, resolution=(180, 720),
+                     caster=None, script_f=None, with_report=False):
         """Surface-to-surface view factors F_IJ (area to area): (names, numpy (m, m)
-        matrix), surfaces by "patch", "polygon" or "group"; `origins` N: N x N hemispheres
-        a patch (default 2); `enclosure`: "raw", "reciprocal" (A_I F_IJ = A_J F_JI, each
-        row keeping its sum) or "closed" (also every row summing to 1). With
-        `with_report`, also (areas, a dict of the errors before and after the rule)."""
+        matrix), surfaces by "patch", "polygon" or "group" (default: group for a View3D
+        file, else polygon); `origins` N: N x N hemispheres a patch (default 2);
+        `enclosure`: "raw", "reciprocal" (A_I F_IJ = A_J F_JI, each row keeping its sum)
+        or "closed" (also every row summing to 1; default: a View3D file's encl, else
+        raw); `script_f`: Hottel's total exchange factors (default: a View3D file's emit).
+        Up to 10,000 surfaces (a dense matrix); more through `coherad viewfactors
+        --format bin`. With `with_report`, also (areas, a dict of the errors before and
+        after the rule)."""
         names, dense, area, report = self._s.view_factors_raw(
-            by, origins, enclosure, _resolution(resolution), caster)
+            by, origins, enclosure, _resolution(resolution), caster, script_f)
         m = len(names)
         matrix = _array(dense, np.float64, (m, m))
         if with_report:

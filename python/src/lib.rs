@@ -17,7 +17,7 @@ use rad_pipeline::{
 use std::path::PathBuf;
 
 create_exception!(
-    _native,
+    coherad,
     CoheradError,
     PyException,
     "An error from coherad: a bad file, a bad value; the message names what and where."
@@ -26,6 +26,29 @@ create_exception!(
 fn fail(e: impl std::fmt::Display) -> PyErr {
     CoheradError::new_err(e.to_string())
 }
+
+/// Runs `work` without the GIL; a panic (a bug: every bad input is an error) becomes a
+/// `CoheradError` saying so, rather than PyO3's `PanicException`.
+fn detached<T: Send>(
+    py: Python<'_>,
+    work: impl FnOnce() -> Result<T, rad_pipeline::Error> + Send,
+) -> PyResult<T> {
+    let caught = py.detach(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(work)));
+    match caught {
+        Ok(result) => result.map_err(fail),
+        Err(p) => {
+            let what = p
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            Err(fail(format!("internal error (please report it): {what}")))
+        }
+    }
+}
+
+/// Most surfaces `view_factors_raw` returns as a dense matrix (8 bytes a pair).
+const MAX_DENSE_SURFACES: usize = 10_000;
 
 /// A loaded, validated scene.
 #[pyclass(module = "coherad._native", frozen)]
@@ -155,9 +178,9 @@ impl Scene {
             )));
         }
         let scene = &self.file.scene;
-        let made = py
-            .detach(|| rad_pipeline::rows(scene, &hemi, method, &ids, &|_| {}))
-            .map_err(fail)?;
+        let made = detached(py, || {
+            rad_pipeline::rows(scene, &hemi, method, &ids, &|_| {})
+        })?;
         let mut indptr = Vec::with_capacity(made.rows.len() + 1);
         let (mut cols, mut vals) = (Vec::new(), Vec::new());
         let (mut back, mut escaped) = (Vec::new(), Vec::new());
@@ -183,17 +206,28 @@ impl Scene {
 
     /// Surface view factors: (names, the dense matrix as f64 bytes row by row, areas,
     /// a dict of the enclosure report).
-    #[pyo3(signature = (by = "polygon", origins = None, enclosure = "raw", resolution = (180, 720), caster = None))]
+    #[pyo3(signature = (by = None, origins = None, enclosure = None, resolution = (180, 720), caster = None, script_f = None))]
+    #[allow(clippy::too_many_arguments)]
     fn view_factors_raw(
         &self,
         py: Python<'_>,
-        by: &str,
+        by: Option<&str>,
         origins: Option<u32>,
-        enclosure: &str,
+        enclosure: Option<&str>,
         resolution: (u32, u32),
         caster: Option<&str>,
+        script_f: Option<bool>,
     ) -> PyResult<(Vec<String>, Py<PyBytes>, Py<PyBytes>, Py<PyDict>)> {
         let scene = &self.file.scene;
+        // The binary's defaults: a View3D file's surfaces by group, its encl and emit.
+        let v3 = self.file.view3d.as_ref();
+        let by = by.unwrap_or(if v3.is_some() { "group" } else { "polygon" });
+        let enclosure = enclosure.unwrap_or(if v3.is_some_and(|c| c.encl) {
+            "closed"
+        } else {
+            "raw"
+        });
+        let script_f = script_f.unwrap_or(v3.is_some_and(|c| c.emit));
         let mut opts = ViewFactorOptions::for_scene(scene);
         opts.by = match by {
             "patch" => Grouping::Patch,
@@ -221,6 +255,7 @@ impl Scene {
         if let Some(c) = caster {
             opts.caster = c.parse::<CasterKind>().map_err(fail)?;
         }
+        opts.script_f = script_f;
         let hemi = hemisphere(resolution)?;
         let vf = py
             .detach(|| view_factors(scene, &hemi, &opts, &|_| {}))
@@ -236,6 +271,8 @@ impl Scene {
         let r = &vf.report;
         report.set_item("enclosure", opts.enclosure.name())?;
         report.set_item("origins", opts.origins)?;
+        report.set_item("by", by)?;
+        report.set_item("script_f", vf.script_f)?;
         report.set_item("max_row_sum_error", r.fixed.row_sum.max)?;
         report.set_item("max_reciprocity_error", r.fixed.reciprocity.max)?;
         report.set_item("raw_max_row_sum_error", r.raw.row_sum.max)?;
@@ -287,9 +324,8 @@ impl Scene {
             opts.matrix_free.tolerance = t;
         }
         let file = &self.file;
-        let (solution, solved, _) = py
-            .detach(|| solve_scene(file, &hemi, method, &opts, &|_| {}))
-            .map_err(fail)?;
+        let (solution, solved, _) =
+            detached(py, || solve_scene(file, &hemi, method, &opts, &|_| {}))?;
         let flat: Vec<f64> = solution.radiosity.iter().flatten().copied().collect();
         let report = PyDict::new(py);
         let r = &solved.solution.report;

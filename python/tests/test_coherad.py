@@ -96,6 +96,9 @@ def test_errors_are_exceptions_with_the_clis_messages(tmp_path):
     scene = coherad.load(CUBE)
     for call, text in [
         (lambda: scene.form_factors((0, 10)), "resolution"),
+        (lambda: scene.form_factors((-3, 10)), "resolution"),
+        (lambda: scene.form_factors((6, 24), patches=[-1]), "out of range"),
+        (lambda: scene.solve((6, 24), solver="progressive", reciprocal=False), "raw rows"),
         (lambda: scene.form_factors((6, 24), method="magic"), "method"),
         (lambda: scene.form_factors((6, 24), patches=[600]), "out of range"),
         (lambda: scene.view_factors(by="room"), "by"),
@@ -103,6 +106,17 @@ def test_errors_are_exceptions_with_the_clis_messages(tmp_path):
     ]:
         with pytest.raises(coherad.CoheradError, match=text):
             call()
+
+
+def test_arrays_are_writable_and_the_error_pickles():
+    import pickle
+    scene = coherad.load(CUBE)
+    F = scene.form_factors((6, 24))
+    F.data *= 2.0
+    p = scene.patches()
+    p["area"][0] = 0.0
+    e = pickle.loads(pickle.dumps(coherad.CoheradError("x")))
+    assert isinstance(e, coherad.CoheradError)
 
 
 def test_long_work_releases_the_gil():

@@ -172,8 +172,8 @@ enum Command {
         tolerance: Option<f64>,
         /// Stop after this many sweeps (Gauss-Seidel, progressive) or shots (matrix-free)
         /// even if not converged (the exit code is then 3). Default: 10,000,000.
-        #[arg(long)]
-        max_iterations: Option<usize>,
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+        max_iterations: Option<u64>,
         /// Solve the rows as computed, without making them reciprocal first (energy is then
         /// conserved only to their reciprocity error).
         #[arg(long)]
@@ -927,7 +927,7 @@ fn camera(scene: &SceneFile, f: &CameraFlags) -> Result<Camera, String> {
 struct How {
     solver: SolverKind,
     tolerance: Option<f64>,
-    max_iterations: Option<usize>,
+    max_iterations: Option<u64>,
     raw: bool,
     storage: StorageKind,
     memory_limit: usize,
@@ -1001,9 +1001,7 @@ fn solve(
         opts.matrix_free.tolerance = t;
     }
     if let Some(n) = how.max_iterations {
-        if n == 0 {
-            return Err("--max-iterations must be at least 1".into());
-        }
+        let n = usize::try_from(n).unwrap_or(usize::MAX);
         opts.config.max_iterations = n;
         opts.matrix_free.max_iterations = n;
     }

@@ -66,6 +66,14 @@ pub enum Error {
     },
     #[error("material name {name:?} is defined twice")]
     DuplicateMaterial { name: String },
+    #[error("polygons {a} ({a_name:?}) and {b} ({b_name:?}) lie in one plane, face the same way and overlap (shared area {area:e}): rays would meet only polygon {a}, and polygon {b} would silently receive no light; remove one, or cut them apart")]
+    Overlap {
+        a: usize,
+        a_name: String,
+        b: usize,
+        b_name: String,
+        area: f64,
+    },
     #[error("the scene has no polygons")]
     Empty,
     #[error("the scene has {count} patches, over the limit of {limit}")]

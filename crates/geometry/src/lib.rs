@@ -5,6 +5,7 @@ mod clip;
 mod error;
 pub mod file;
 mod hit_test;
+mod overlap;
 mod polygon;
 mod scene;
 pub mod scenes;
@@ -12,6 +13,7 @@ mod triangulate;
 
 pub use error::{Error, PolygonProblem};
 pub use hit_test::{OriginTerms, PolygonTerms, Shape, Triangle};
+pub use overlap::{NORMAL_TOLERANCE, OVERLAP_FRACTION, PLANE_TOLERANCE};
 pub use polygon::vertices_problem;
 pub use polygon::{
     Patch, Polygon, PolygonHit, MAX_CELLS_PER_POLYGON, MAX_COORDINATE, MIN_POLYGON_SIZE,

@@ -189,6 +189,16 @@ impl Scene {
             }));
             polygons.push(built.polygon);
         }
+        let extent = (hi - lo).length() as f64;
+        if let Some((a, b, area)) = crate::overlap::find_overlap(&polygons, extent) {
+            return Err(Error::Overlap {
+                a,
+                a_name: polygons[a].name().to_string(),
+                b,
+                b_name: polygons[b].name().to_string(),
+                area,
+            });
+        }
         Ok(Scene {
             polygons,
             patches,

@@ -32,6 +32,7 @@ pub fn write_atomic(
         name.to_string_lossy(),
         std::process::id()
     ));
+    remove_stale_temporaries(&dir, &name.to_string_lossy());
     // Removes the temporary file however this ends (an error, or a panic unwinding
     // through `fill`), unless it was renamed into place.
     struct Guard<'p>(&'p Path, bool);
@@ -56,6 +57,33 @@ pub fn write_atomic(
     }
     guard.1 = false;
     Ok(())
+}
+
+/// Removes the temporary files of earlier writes of `name` in `dir` whose process has
+/// gone (killed before it could clean up: `.{name}.{pid}.tmp` with no `/proc/{pid}`), so
+/// that killed runs leave no litter that outlives the next write. Best effort, Linux.
+fn remove_stale_temporaries(dir: &Path, name: &str) {
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let prefix = format!(".{name}.");
+    for entry in entries.flatten() {
+        let file = entry.file_name();
+        let file = file.to_string_lossy();
+        let Some(pid) = file
+            .strip_prefix(&prefix)
+            .and_then(|rest| rest.strip_suffix(".tmp"))
+            .and_then(|pid| pid.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
 }
 
 fn arr3(v: glam::Vec3) -> [f32; 3] {

@@ -299,6 +299,16 @@ pub fn solve_scene(
     opts: &SolveOptions,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<(SolutionFile, Solved, EstimateStats), Error> {
+    if !opts.reciprocal && opts.solver == Solver::Progressive {
+        return Err(Error::Parse {
+            what: "solver",
+            input: "progressive".into(),
+            reason: "cannot converge on raw rows: shooting takes F_ji from F_ij by \
+                     reciprocity, which raw rows hold only to their discretisation error; \
+                     use Gauss-Seidel, or reciprocal rows"
+                .into(),
+        });
+    }
     let n = scene.scene.patches().len();
     let storage = match opts.storage {
         Some(s) => s,

@@ -842,8 +842,13 @@ fn flags_of(help: &str) -> Vec<String> {
     let mut flags = Vec::new();
     let mut in_options = false;
     for line in help.lines() {
-        if line.starts_with("Options:") {
-            in_options = true;
+        if line.trim().is_empty() {
+            // clap's long help puts blank lines between options: not the section's end.
+            continue;
+        }
+        if line.ends_with(':') && !line.starts_with(' ') {
+            // A section heading: "Options:", or a custom one (a help_heading).
+            in_options = line != "Commands:" && line != "Arguments:";
             continue;
         }
         if !line.starts_with(' ') {
@@ -901,7 +906,15 @@ fn the_readme_lists_every_command_and_flag_that_help_does() {
         let bullet = &section[at..];
         let bullet = &bullet[..bullet[1..].find("\n- `").map_or(bullet.len(), |k| k + 1)];
         let help = String::from_utf8(coherad(&[cmd, "--help"]).stdout).unwrap();
-        for flag in flags_of(&help).iter().filter(|f| !global.contains(f)) {
+        let own: Vec<String> = flags_of(&help)
+            .into_iter()
+            .filter(|f| !global.contains(f))
+            .collect();
+        assert!(
+            !own.is_empty(),
+            "`{cmd} --help` lists no flags of its own:\n{help}"
+        );
+        for flag in &own {
             assert!(
                 bullet.contains(flag.as_str()),
                 "README: `{cmd}`'s bullet does not mention {flag}"
@@ -961,4 +974,75 @@ fn exit_codes_tell_errors_usage_and_unconverged_solves_apart() {
     let v = coherad(&["--version"]);
     let text = String::from_utf8_lossy(&v.stdout);
     assert!(v.status.success() && text.contains("(git "), "{text}");
+}
+
+#[test]
+fn runs_killed_while_writing_leave_no_partial_output() {
+    // 20 runs killed (SIGKILL) at spread-out moments while computing or writing: the
+    // output is absent or whole, never partial; the next run clears their temporaries.
+    let dir = tempfile::tempdir().unwrap();
+    let loft = bench_scene("loft.json");
+    let out = dir.path().join("out.json");
+    let mut complete = 0;
+    for k in 0..20u64 {
+        let _ = std::fs::remove_file(&out);
+        let args: Vec<String> = if k % 2 == 0 {
+            [
+                "formfactors",
+                loft.to_str().unwrap(),
+                "--resolution",
+                "30x120",
+                "--out",
+            ]
+        } else {
+            [
+                "solve",
+                loft.to_str().unwrap(),
+                "--resolution",
+                "20x80",
+                "--out",
+            ]
+        }
+        .iter()
+        .map(|s| s.to_string())
+        .chain([out.to_str().unwrap().to_string()])
+        .collect();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_coherad"))
+            .args(&args)
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        // Moments from 30 ms to about 3 s, spread by a fixed sequence.
+        let wait = 30 + (k * 7919 % 20) * 150;
+        std::thread::sleep(std::time::Duration::from_millis(wait));
+        let _ = child.kill();
+        let _ = child.wait();
+        if out.exists() {
+            let text = std::fs::read_to_string(&out).unwrap();
+            let v: serde_json::Value = serde_json::from_str(&text)
+                .unwrap_or_else(|e| panic!("run {k}: a partial output ({e})"));
+            let key = if k % 2 == 0 { "rows" } else { "radiosity" };
+            assert_eq!(v[key].as_array().unwrap().len(), 14400, "run {k}");
+            complete += 1;
+        }
+    }
+    // A run to the end clears the killed runs' temporaries.
+    let ok = coherad(&[
+        "formfactors",
+        loft.to_str().unwrap(),
+        "--resolution",
+        "6x24",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok.status.success());
+    let strays: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect();
+    assert!(strays.is_empty(), "{strays:?}");
+    // Some runs were cut short (else the test tested nothing).
+    assert!(complete < 20, "every run completed before its kill");
 }

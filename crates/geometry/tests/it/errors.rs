@@ -358,3 +358,47 @@ fn view3d_text_with_commas_and_non_ascii_words_is_read_not_panicked_on() {
         assert!(vs3_from_text(bad, None).is_err(), "{bad:?}");
     }
 }
+
+#[test]
+fn coplanar_overlapping_polygons_facing_the_same_way_are_refused_by_name() {
+    use rad_geometry::scenes::cube;
+    // A face given twice: the copy would get no light.
+    let mut twice = cube(2);
+    let mut copy = twice.polygons[0].clone();
+    copy.name = "copy of the first".into();
+    twice.polygons.push(copy);
+    let msg = Scene::new(twice).unwrap_err().to_string();
+    assert!(
+        msg.contains("polygons 0 (")
+            && msg.contains("and 6 (\"copy of the first\")")
+            && msg.contains("overlap"),
+        "{msg}"
+    );
+    // A piece inside another, same plane, same facing (z-fighting).
+    let mut piece = cube(2);
+    let f = piece.polygons[2].clone();
+    let c = f.vertices.iter().copied().sum::<glam::Vec3>() / 4.0;
+    let mut inner = f.clone();
+    inner.name = "patch on the face".into();
+    inner.vertices = f.vertices.iter().map(|&v| c + 0.25 * (v - c)).collect();
+    piece.polygons.push(inner);
+    let msg = Scene::new(piece).unwrap_err().to_string();
+    assert!(msg.contains("and 6 (\"patch on the face\")"), "{msg}");
+    // The same face reversed (back to back, as a two-sided wall is modelled): allowed;
+    // so are coplanar neighbours that share an edge.
+    let mut back = cube(2);
+    let mut rev = back.polygons[0].clone();
+    rev.vertices.reverse();
+    back.polygons.push(rev);
+    Scene::new(back).unwrap();
+    let mut halves = cube(2);
+    let f = halves.polygons[0].clone();
+    let (a, b, c2, d) = (f.vertices[0], f.vertices[1], f.vertices[2], f.vertices[3]);
+    let (m1, m2) = ((a + b) / 2.0, (c2 + d) / 2.0);
+    halves.polygons[0].vertices = vec![a, m1, m2, d];
+    let mut other = f.clone();
+    other.name = "other half".into();
+    other.vertices = vec![m1, b, c2, m2];
+    halves.polygons.push(other);
+    Scene::new(halves).unwrap();
+}

@@ -3,4 +3,5 @@
 mod analytic;
 mod origins;
 mod props;
+mod scale;
 mod scan;
