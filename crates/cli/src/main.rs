@@ -634,10 +634,15 @@ fn formfactors(
             leaked[0]
         );
     }
-    let backs = made.rows.iter().filter(|r| r.back > 0.0).count();
-    if backs > 0 {
+    let backs: Vec<&rad_pipeline::Row> = made.rows.iter().filter(|r| r.back > 0.0).collect();
+    if let Some(first) = backs.iter().max_by(|a, b| a.back.total_cmp(&b.back)) {
+        let polygon = scene_.patches()[first.patch as usize].polygon as usize;
         eprintln!(
-            "warning: {backs} row(s) see polygons from behind (their \"back\" form factor is > 0)"
+            "warning: {} row(s) see polygons from behind (their \"back\" form factor is > 0; most: patch {} of polygon {polygon} ({:?}), {:.3e} of its hemisphere)",
+            backs.len(),
+            first.patch,
+            scene_.polygons()[polygon].name(),
+            first.back
         );
     }
     let res = (hemi.n_theta() as u32, hemi.n_phi() as u32);

@@ -24,7 +24,7 @@ pub use rad_core::Rgb;
 pub use rad_estimator::{EstimateStats, Mode};
 pub use rad_geometry::file::{LoadOptions, SCENE_EXTENSIONS};
 pub use rad_geometry::{Camera, Triangulation};
-pub use rad_hemisphere::{Hemisphere, HemisphereConfig};
+pub use rad_hemisphere::{Hemisphere, HemisphereConfig, Row};
 pub use rad_render::{RenderConfig, Shading, View};
 pub use rad_solver::{Enclosure, SolveConfig, Solver};
 pub use rows::{rows, rows_streamed, Rows, STREAM_CHUNK};

@@ -619,18 +619,23 @@ fn view_factors_of_the_cube() {
     assert_eq!(&bytes[bytes.len() - 16..bytes.len() - 8], b"COHERADE");
 }
 
-/// The pixels of a 64-pixel-wide EXR file (RGB, row by row).
+/// The pixels of an EXR file (RGB, row by row).
 fn exr_pixels(path: &Path) -> Vec<[f32; 3]> {
     use exr::prelude::*;
     let image = read_first_rgba_layer_from_file(
         path,
-        |resolution, _| vec![[0.0f32; 3]; resolution.width() * resolution.height()],
-        |pixels: &mut Vec<[f32; 3]>, position, (r, g, b, _a): (f32, f32, f32, f32)| {
-            pixels[position.y() * 64 + position.x()] = [r, g, b]; // 64 pixels a row
+        |resolution, _| {
+            let w = resolution.width();
+            (w, vec![[0.0f32; 3]; w * resolution.height()])
+        },
+        |(w, pixels): &mut (usize, Vec<[f32; 3]>),
+         position,
+         (r, g, b, _a): (f32, f32, f32, f32)| {
+            pixels[position.y() * *w + position.x()] = [r, g, b];
         },
     )
     .unwrap();
-    image.layer_data.channel_data.pixels
+    image.layer_data.channel_data.pixels.1
 }
 
 /// An OBJ scene has no camera: `render` takes one from flags, and `--radiance` writes
@@ -1045,4 +1050,186 @@ fn runs_killed_while_writing_leave_no_partial_output() {
     assert!(strays.is_empty(), "{strays:?}");
     // Some runs were cut short (else the test tested nothing).
     assert!(complete < 20, "every run completed before its kill");
+}
+
+/// Every number in a JSON value, with the path to it; `null`s where numbers belong
+/// (serde writes a non-finite float as `null`) are reported as NaN.
+fn numbers(v: &serde_json::Value, path: &str, out: &mut Vec<(String, f64)>) {
+    match v {
+        serde_json::Value::Number(n) => out.push((path.to_string(), n.as_f64().unwrap())),
+        serde_json::Value::Array(a) => {
+            let numeric = a.iter().any(|x| x.is_number());
+            for (k, x) in a.iter().enumerate() {
+                if numeric && x.is_null() {
+                    out.push((format!("{path}[{k}]"), f64::NAN));
+                }
+                numbers(x, &format!("{path}[{k}]"), out);
+            }
+        }
+        serde_json::Value::Object(o) => {
+            for (k, x) in o {
+                numbers(x, &format!("{path}.{k}"), out);
+            }
+        }
+        _ => {}
+    }
+}
+
+#[test]
+fn no_output_holds_a_nan_an_infinity_or_a_null_number() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["cube.json", "cornell.json", "loft.json"] {
+        let scene = bench_scene(name);
+        let s = scene.to_str().unwrap();
+        let file = |ext: &str| dir.path().join(format!("{name}.{ext}"));
+        let (sol, ff, vf) = (file("solution.json"), file("rows.json"), file("vf.json"));
+        let (csv, mtx, exr, glb) = (file("vf.csv"), file("vf.mtx"), file("img.exr"), file("glb"));
+        let runs: Vec<Vec<&str>> = vec![
+            vec![
+                "solve",
+                s,
+                "--resolution",
+                "8x32",
+                "--out",
+                sol.to_str().unwrap(),
+            ],
+            vec![
+                "formfactors",
+                s,
+                "--resolution",
+                "8x32",
+                "--out",
+                ff.to_str().unwrap(),
+            ],
+            vec![
+                "viewfactors",
+                s,
+                "--resolution",
+                "8x32",
+                "--origins",
+                "1",
+                "--out",
+                vf.to_str().unwrap(),
+            ],
+            vec![
+                "viewfactors",
+                s,
+                "--resolution",
+                "8x32",
+                "--origins",
+                "1",
+                "--format",
+                "csv",
+                "--out",
+                csv.to_str().unwrap(),
+            ],
+            vec![
+                "viewfactors",
+                s,
+                "--resolution",
+                "8x32",
+                "--origins",
+                "1",
+                "--out",
+                mtx.to_str().unwrap(),
+            ],
+        ];
+        for args in runs {
+            let r = coherad(&args);
+            assert!(
+                r.status.success(),
+                "{args:?}: {}",
+                String::from_utf8_lossy(&r.stderr)
+            );
+        }
+        let mut render = vec![
+            "render",
+            s,
+            "--solution",
+            sol.to_str().unwrap(),
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--out",
+            exr.to_str().unwrap(),
+        ];
+        if name == "cube.json" {
+            render.extend(["--eye", "0.5,0.5,0.5", "--look-at", "0.5,0.5,0"]);
+        }
+        let r = coherad(&render);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        assert!(coherad(&[
+            "export",
+            s,
+            "--solution",
+            sol.to_str().unwrap(),
+            "--out",
+            glb.to_str().unwrap()
+        ])
+        .status
+        .success());
+        let patches = coherad(&["patches", s]);
+        for (what, text) in [
+            ("patches", String::from_utf8(patches.stdout).unwrap()),
+            ("solution", std::fs::read_to_string(&sol).unwrap()),
+            ("rows", std::fs::read_to_string(&ff).unwrap()),
+            ("view factors", std::fs::read_to_string(&vf).unwrap()),
+        ] {
+            assert_json_finite(name, what, &text);
+        }
+        for path in [&csv, &mtx] {
+            let text = std::fs::read_to_string(path).unwrap().to_ascii_lowercase();
+            assert!(
+                !text.contains("nan") && !text.contains("inf"),
+                "{}",
+                path.display()
+            );
+        }
+        assert!(
+            exr_pixels(&exr).iter().flatten().all(|c| c.is_finite()),
+            "{name}: the image"
+        );
+        assert_glb_finite(name, &glb);
+    }
+}
+
+/// Every number of a JSON output is finite (and there are numbers).
+fn assert_json_finite(name: &str, what: &str, text: &str) {
+    let v: serde_json::Value = serde_json::from_str(text).unwrap();
+    let mut all = Vec::new();
+    numbers(&v, what, &mut all);
+    assert!(all.len() > 10, "{name} {what}");
+    if let Some((path, x)) = all.iter().find(|(_, x)| !x.is_finite()) {
+        panic!("{name}: {path} is {x}");
+    }
+}
+
+/// The GLB's JSON chunk (accessor bounds) parses with finite numbers, and every float
+/// of its vertex buffers (positions, normals, colours) is finite.
+fn assert_glb_finite(name: &str, glb: &Path) {
+    let bytes = std::fs::read(glb).unwrap();
+    let json_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let doc: serde_json::Value = serde_json::from_slice(&bytes[20..20 + json_len]).unwrap();
+    let mut all = Vec::new();
+    numbers(&doc, "glb", &mut all);
+    assert!(
+        all.iter().all(|(_, x)| x.is_finite()),
+        "{name}: the glTF JSON"
+    );
+    let bin = &bytes[20 + json_len + 8..];
+    for view in doc["bufferViews"].as_array().unwrap() {
+        if view["target"] == 34962 {
+            let (o, l) = (
+                view["byteOffset"].as_u64().unwrap() as usize,
+                view["byteLength"].as_u64().unwrap() as usize,
+            );
+            assert!(
+                bin[o..o + l]
+                    .chunks_exact(4)
+                    .all(|c| f32::from_le_bytes(c.try_into().unwrap()).is_finite()),
+                "{name}: the glTF buffer"
+            );
+        }
+    }
 }
