@@ -14,7 +14,7 @@ pub use self::gltf::{gltf_from_bytes, load_gltf, MAX_GLTF_REFLECTANCE};
 pub use json::{scene_desc_from_json, scene_desc_to_json, scene_desc_to_json_indexed};
 pub use material_map::{apply_material_map, apply_material_text};
 pub use mesh::{
-    load_ply, load_stl, ply_from_reader, stl_from_bytes, DEFAULT_MATERIAL, DEFAULT_REFLECTANCE,
+    load_ply, load_stl, ply_from_bytes, stl_from_bytes, DEFAULT_MATERIAL, DEFAULT_REFLECTANCE,
 };
 pub use obj::{load_obj, obj_from_bytes};
 pub use vs3::{load_vs3, vs3_from_text, View3dControl, VS3_DEFAULT_GRID};

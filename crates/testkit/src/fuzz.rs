@@ -9,7 +9,7 @@
 
 use glam::Vec3;
 use rad_geometry::file::{
-    apply_material_text, gltf_from_bytes, obj_from_bytes, ply_from_reader, scene_desc_from_json,
+    apply_material_text, gltf_from_bytes, obj_from_bytes, ply_from_bytes, scene_desc_from_json,
     scene_desc_to_json, stl_from_bytes, vs3_from_text,
 };
 use rad_geometry::{scenes, triangulate, Scene, SceneDesc};
@@ -492,7 +492,7 @@ pub fn targets() -> Vec<Target> {
             seeds: vec![ply_seed("ascii"), ply_seed("binary_little_endian"), ply_seed("binary_big_endian")],
             tokens: tokens(&["element ", "property ", "list ", "uchar ", "int ", "float ", "double ", "face ", "vertex ", "end_header\n", "vertex_indices", "comment ", "format "]),
             run: |b| {
-                if let Ok(desc) = ply_from_reader(Path::new(FUZZ_PATH), b, 0.3, None) {
+                if let Ok(desc) = ply_from_bytes(Path::new(FUZZ_PATH), b, 0.3, None) {
                     validate(desc);
                 }
             },

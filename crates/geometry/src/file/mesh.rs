@@ -54,15 +54,6 @@ pub(crate) fn default_material(reflectance: Option<Rgb>) -> Material {
     }
 }
 
-fn open(path: &Path) -> Result<std::io::BufReader<std::fs::File>, Error> {
-    std::fs::File::open(path)
-        .map(std::io::BufReader::new)
-        .map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })
-}
-
 fn mesh_err(path: &Path, format: &'static str, message: impl Into<String>) -> Error {
     Error::Mesh {
         path: path.to_path_buf(),
@@ -247,22 +238,70 @@ pub fn load_ply(
     patch_size: f64,
     reflectance: Option<Rgb>,
 ) -> Result<SceneDesc, Error> {
-    ply_from_reader(path, open(path)?, patch_size, reflectance)
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    ply_from_bytes(path, &bytes, patch_size, reflectance)
 }
 
-/// A PLY file from any reader (see [`load_ply`]); errors name `path`.
-pub fn ply_from_reader<R: std::io::Read>(
+/// Refuses element counts the file cannot hold: every element takes at least a byte a
+/// property (a binary one its scalars' and list counts' bytes), and an element with no
+/// property takes none, so a count of it would make that many values out of nothing
+/// (a 100-byte file asking for 10^9 vertices).
+fn check_ply_counts(header: &ply_rs_bw::ply::Header, bytes: usize) -> Result<(), String> {
+    use ply_rs_bw::ply::{Encoding, PropertyType, ScalarType};
+    let size = |t: &ScalarType| match t {
+        ScalarType::Char | ScalarType::UChar => 1,
+        ScalarType::Short | ScalarType::UShort => 2,
+        ScalarType::Int | ScalarType::UInt | ScalarType::Float => 4,
+        ScalarType::Double => 8,
+    };
+    let binary = !matches!(header.encoding, Encoding::Ascii);
+    let mut total = 0usize;
+    for (_, e) in &header.elements {
+        if e.count > 0 && e.properties.is_empty() {
+            return Err(format!(
+                "element {:?} has {} entries but no properties",
+                e.name, e.count
+            ));
+        }
+        let per: usize = e
+            .properties
+            .iter()
+            .map(|(_, p)| match &p.data_type {
+                _ if !binary => 1,
+                PropertyType::Scalar(t) => size(t),
+                PropertyType::List(count, _) => size(count),
+            })
+            .sum();
+        total = total.saturating_add(e.count.saturating_mul(per));
+        if total > bytes {
+            return Err(format!(
+                "element {:?} has {} entries, more than the file's {bytes} bytes can hold",
+                e.name, e.count
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A PLY file in memory (see [`load_ply`]); errors name `path`.
+pub fn ply_from_bytes(
     path: &Path,
-    source: R,
+    bytes: &[u8],
     patch_size: f64,
     reflectance: Option<Rgb>,
 ) -> Result<SceneDesc, Error> {
+    let bytes_hint = bytes.len();
+    let source = bytes;
     use ply_rs_bw::parser::{Parser, Reader};
     let err = |m: String| mesh_err(path, "PLY", m);
     let mut reader = Reader::new(std::io::BufReader::new(source));
     let header = Parser::<PlyIgnored>::new()
         .read_header(&mut reader)
         .map_err(|e| err(format!("cannot parse the PLY header: {e}")))?;
+    check_ply_counts(&header, bytes_hint).map_err(err)?;
     let mut vertices: Option<Vec<PlyVertex>> = None;
     let mut faces: Option<Vec<PlyFace>> = None;
     for (_, element) in &header.elements {

@@ -222,6 +222,9 @@ fn truncated_and_malformed_mesh_files_are_refused_by_name() {
         ("noface.ply", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n".to_vec(), "no face element"),
         ("badindex.ply", b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n".to_vec(), "vertex index 7"),
         ("garbage.ply", b"not a ply file at all".to_vec(), "PLY"),
+        // A billion vertices of no properties (the fuzzer's find: 24 GB from 100 bytes).
+        ("empty_vertices.ply", b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n".to_vec(), "no properties"),
+        ("many_vertices.ply", b"ply\nformat ascii 1.0\nelement vertex 1000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n".to_vec(), "more than the file's"),
         ("garbage.gltf", b"{\"asset\": 3}".to_vec(), "glTF"),
         ("garbage.glb", b"glTF\x02\x00\x00\x00\x10".to_vec(), "glTF"),
     ];
