@@ -103,6 +103,10 @@ def test_errors_are_exceptions_with_the_clis_messages(tmp_path):
         (lambda: scene.form_factors((6, 24), patches=[600]), "out of range"),
         (lambda: scene.view_factors(by="room"), "by"),
         (lambda: scene.solve((6, 24), solver="jacobi"), "solver"),
+        # 14,400 patches: over the dense matrix's 10,000 surfaces, refused before any
+        # row is made.
+        (lambda: coherad.load(ROOT / "bench-scenes" / "loft.json").view_factors(by="patch"),
+         "14400 surfaces, over the 10000"),
     ]:
         with pytest.raises(coherad.CoheradError, match=text):
             call()

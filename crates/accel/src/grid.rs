@@ -480,7 +480,7 @@ impl RayCast for VoxelGrid<'_> {
         let (p, _) = self.entry(o, ray.dir, ray.t_max)?;
         let start = self.voxel_of(p);
         self.closest(o, ray.dir, start, ray.t_max, ray.skip, scratch, |_, p| {
-            self.hot[p as usize].at(o)
+            self.scene.seen(p as usize, self.hot[p as usize].at(o))
         })
     }
 
@@ -498,8 +498,8 @@ impl RayCast for VoxelGrid<'_> {
         let cull = own.is_some_and(|n| dirs.iter().all(|d| d.dot(n) > 0.0));
         if scratch.origin != Some((origin, skip, cull)) {
             scratch.uncull();
-            for (t, h) in scratch.per_origin.iter_mut().zip(&self.hot) {
-                *t = h.at(origin);
+            for (p, (t, h)) in scratch.per_origin.iter_mut().zip(&self.hot).enumerate() {
+                *t = self.scene.seen(p, h.at(origin));
             }
             if let (true, Some(n)) = (cull, own) {
                 let (o, n) = (origin.as_dvec3(), n.as_dvec3());

@@ -105,7 +105,8 @@ impl<'s> WideBvh<'s> {
     fn hit(&self, k: usize, ray: &Ray) -> Option<rad_geometry::PolygonHit> {
         let (terms, shape) = &self.terms[k];
         let poly = || &self.scene.polygons()[self.id(k) as usize];
-        shape.hit_from(poly, &terms.at(ray.origin), ray.dir, ray.t_max)
+        let terms = self.scene.seen(self.id(k) as usize, terms.at(ray.origin));
+        shape.hit_from(poly, &terms, ray.dir, ray.t_max)
     }
 }
 

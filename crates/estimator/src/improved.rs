@@ -300,7 +300,7 @@ impl Work {
         let polygons = scene.polygons();
         let (n_theta, stride, fine_n_phi) = (trig.n_theta, trig.stride, hemi.n_phi());
         w.terms_of.clear();
-        w.terms_of.extend(polygons.iter().map(|p| p.terms().at(o)));
+        w.terms_of.extend(polygons.iter().map(|p| p.terms_at(o)));
         let hits = &mut w.hits;
         hits.begin(hemi, scene, own);
         let tests_before = hits.tests;

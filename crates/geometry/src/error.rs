@@ -39,6 +39,8 @@ pub enum PolygonProblem {
     PatchGridTooLarge { nu: u64, nv: u64, limit: u64 },
     #[error("has a patch grid of {nu} x {nv} none of whose cells keeps any area once clipped to it: its outline is too thin or too irregular to be cut (a sliver, nearly concave at its scale); drop it or split it")]
     EmptyTexture { nu: u64, nv: u64 },
+    #[error("is both two_sided and an obstruction: an obstruction already blocks rays from both sides and gets no view factors; drop one of the two flags")]
+    TwoSidedObstruction,
     #[error("has no usable target patch size ({size}); give a finite size > 0 (--patch-size for OBJ files)")]
     BadPatchSize { size: f64 },
     #[error("names material {name:?}, which the scene does not define")]

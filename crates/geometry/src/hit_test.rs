@@ -88,6 +88,21 @@ impl OriginTerms {
         Some((t, u, v, denom))
     }
 
+    /// These terms as a front-only polygon's ([`Polygon::front_only`]) of reach
+    /// `reach`: unchanged from an origin in front of the plane by more than `reach`
+    /// (`num < −reach`), and from any other no hit at all (`num` NaN, which every test
+    /// refuses: `t > 0` fails). With `reach` = −∞ (not front-only) they are unchanged
+    /// but for an infinite `num`, which gives no hit either way.
+    #[inline(always)]
+    // (Negated on purpose: a NaN `num` stays NaN.)
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    pub fn front_only(mut self, reach: f32) -> OriginTerms {
+        if !(self.num < -reach) {
+            self.num = f32::NAN;
+        }
+        self
+    }
+
     /// Whether (u, v) lies within the (u, v) bounds (for a front-facing parallelogram,
     /// that is the whole inside test: see [`Polygon::uv_bounds`]).
     #[inline(always)]

@@ -50,6 +50,9 @@ pub struct Polygon {
     /// Largest distance a vertex may lie off the plane (the planarity tolerance).
     off_plane: f32,
     parallelogram: bool,
+    /// Seen only from its front (a side of a two-sided polygon): see
+    /// [`Polygon::front_only`].
+    front_only: bool,
     /// Inward edge functions in (u, v): `a·u + b·v + c` is the distance (world units)
     /// inside the edge's line.
     edges: Vec<[f32; 3]>,
@@ -177,6 +180,7 @@ impl Polygon {
             off_plane,
             parallelogram,
             edges,
+            front_only: false,
             nu: nu32,
             nv: nv32,
             grid_map: [
@@ -210,7 +214,33 @@ impl Polygon {
     /// through; on the back side the polygon shrinks instead (see [`Polygon::contains_uv_back`]).
     #[inline]
     pub fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<PolygonHit> {
-        self.hit_from(&self.terms().at(o), d, t_max)
+        self.hit_from(&self.terms_at(o), d, t_max)
+    }
+
+    /// Its terms for rays from `o` as every caster tests them: [`crate::PolygonTerms::at`],
+    /// with no hit at all from an origin a front-only polygon does not face
+    /// ([`Polygon::front_only`], [`crate::OriginTerms::front_only`]).
+    #[inline]
+    pub fn terms_at(&self, o: Vec3) -> crate::OriginTerms {
+        let terms = self.terms().at(o);
+        if self.front_only {
+            terms.front_only(self.reach())
+        } else {
+            terms
+        }
+    }
+
+    /// Whether it is seen only from its front: a side of a two-sided polygon, whose
+    /// other side is its reverse, coplanar, back to back. No ray meets it from behind,
+    /// nor from an origin within its reach of its plane (so neither side is ever met
+    /// from the other's patches, and a ray meeting the pair takes the side it faces,
+    /// whatever the ids); from in front it is tested as any polygon.
+    pub fn front_only(&self) -> bool {
+        self.front_only
+    }
+
+    pub(crate) fn set_front_only(&mut self, front_only: bool) {
+        self.front_only = front_only;
     }
 
     /// `d − n·o` for the plane `n·p = d`: [`crate::OriginTerms::num`] at `o`, negative

@@ -1,6 +1,7 @@
 //! Scenes: validated polygons with their patches, materials and an optional camera.
 
 use crate::error::{Error, PolygonProblem};
+use crate::hit_test::OriginTerms;
 use crate::polygon::{Patch, Polygon};
 use glam::Vec3;
 use rad_core::{Hit, PatchId, PolygonId, Ray, Rgb};
@@ -74,6 +75,11 @@ pub struct PolygonDesc {
     /// An obstruction only (the JSON format's `obstruction`, View3D's O surfaces): it
     /// blocks rays like any polygon, but view factors give it no row and no column.
     pub obstruction: bool,
+    /// Seen, lit and shading from both sides (the JSON format's `two_sided`): the scene
+    /// makes it two back-to-back polygons, this one and its reverse (named `NAME:back`,
+    /// in group `GROUP:back`, appended after every described polygon), each seen only
+    /// from its front ([`Polygon::front_only`]), so each side has its own patches.
+    pub two_sided: bool,
 }
 
 /// A scene as described, before validation.
@@ -95,55 +101,47 @@ pub struct Scene {
     bounds: (Vec3, Vec3),
     groups: Vec<Option<String>>,
     obstructions: Vec<bool>,
+    /// Each polygon's [`Polygon::reach`] if it is front-only, else −∞; empty when no
+    /// polygon is (what [`Scene::seen`] reads).
+    front_only: Vec<f32>,
 }
 
 impl Scene {
     /// Validates a description and builds every polygon's patch texture.
     pub fn new(desc: SceneDesc) -> Result<Scene, Error> {
-        let mut seen = std::collections::HashSet::new();
-        for m in &desc.materials {
-            if !seen.insert(m.name.as_str()) {
-                return Err(Error::DuplicateMaterial {
-                    name: m.name.clone(),
-                });
-            }
-            let r = m.reflectance.0;
-            if !r.iter().all(|c| c.is_finite() && (0.0..1.0).contains(c)) {
-                return Err(Error::Material {
-                    material: m.name.clone(),
-                    what: "reflectance",
-                    value: r,
-                    rule: "each channel must be in [0, 1)",
-                });
-            }
-            let e = m.emission.0;
-            if !e.iter().all(|c| c.is_finite() && *c >= 0.0) {
-                return Err(Error::Material {
-                    material: m.name.clone(),
-                    what: "emission",
-                    value: e,
-                    rule: "each channel must be finite and >= 0",
-                });
-            }
-        }
+        check_materials(&desc.materials)?;
         if desc.polygons.is_empty() {
             return Err(Error::Empty);
         }
         if let Some(problem) = desc.camera.as_ref().and_then(Camera::problem) {
             return Err(Error::Camera { problem });
         }
-        let mut polygons = Vec::with_capacity(desc.polygons.len());
+        let described = desc.polygons.len();
+        // Two-sided polygons' back sides come after every described polygon, so that
+        // the described ones keep their indices (the file's, in errors and outputs).
+        let backs: Vec<(usize, PolygonDesc)> = desc
+            .polygons
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.two_sided && !p.obstruction)
+            .map(|(idx, p)| (idx, back_side(p)))
+            .collect();
+        let mut polygons = Vec::with_capacity(described + backs.len());
         let mut patches: Vec<Patch> = Vec::new();
-        let mut groups = Vec::with_capacity(desc.polygons.len());
-        let mut obstructions = Vec::with_capacity(desc.polygons.len());
+        let mut groups = Vec::with_capacity(described + backs.len());
+        let mut obstructions = Vec::with_capacity(described + backs.len());
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
-        for (idx, pd) in desc.polygons.into_iter().enumerate() {
+        let all = desc.polygons.into_iter().enumerate().chain(backs);
+        for (idx, pd) in all {
             let fail = |name: &str, problem| Error::Polygon {
                 polygon: idx,
                 name: name.to_string(),
                 problem,
             };
+            if pd.two_sided && pd.obstruction {
+                return Err(fail(&pd.name, PolygonProblem::TwoSidedObstruction));
+            }
             if pd.material >= desc.materials.len() {
                 return Err(fail(
                     &pd.name,
@@ -170,7 +168,7 @@ impl Scene {
             let name = pd.name.clone();
             groups.push(pd.group);
             obstructions.push(pd.obstruction);
-            let built = Polygon::build(
+            let mut built = Polygon::build(
                 pd.name,
                 pd.vertices,
                 pd.material as u32,
@@ -179,16 +177,30 @@ impl Scene {
                 patches.len() as PatchId,
             )
             .map_err(|p| fail(&name, p))?;
+            built.polygon.set_front_only(pd.two_sided);
             for v in built.polygon.vertices() {
                 lo = lo.min(*v);
                 hi = hi.max(*v);
             }
+            let id = polygons.len() as u32;
             patches.extend(built.patches.into_iter().map(|mut p| {
-                p.polygon = idx as u32;
+                p.polygon = id;
                 p
             }));
             polygons.push(built.polygon);
         }
+        let front_only = if polygons.iter().any(Polygon::front_only) {
+            let reach = |p: &Polygon| {
+                if p.front_only() {
+                    p.reach()
+                } else {
+                    f32::NEG_INFINITY
+                }
+            };
+            polygons.iter().map(reach).collect()
+        } else {
+            Vec::new()
+        };
         let extent = (hi - lo).length() as f64;
         if let Some((a, b, area)) = crate::overlap::find_overlap(&polygons, extent) {
             return Err(Error::Overlap {
@@ -207,6 +219,7 @@ impl Scene {
             bounds: (lo, hi),
             groups,
             obstructions,
+            front_only,
         })
     }
 
@@ -226,6 +239,21 @@ impl Scene {
     /// The group polygon `polygon` belongs to, if it names one.
     pub fn group(&self, polygon: usize) -> Option<&str> {
         self.groups.get(polygon).and_then(|g| g.as_deref())
+    }
+    /// Polygon `p`'s terms for an origin (`terms`, [`crate::PolygonTerms::at`]) as every
+    /// caster must test them: a front-only polygon's give no hit from an origin that is
+    /// not in front of its plane by more than its reach ([`OriginTerms::front_only`];
+    /// [`Polygon::terms_at`] is the same for one polygon).
+    #[inline(always)]
+    pub fn seen(&self, p: usize, terms: OriginTerms) -> OriginTerms {
+        match self.front_only.get(p) {
+            Some(&reach) => terms.front_only(reach),
+            None => terms,
+        }
+    }
+    /// Whether some polygon is front-only (a side of a two-sided polygon).
+    pub fn has_front_only(&self) -> bool {
+        !self.front_only.is_empty()
     }
     pub fn camera(&self) -> Option<&Camera> {
         self.camera.as_ref()
@@ -260,6 +288,74 @@ impl Scene {
             }
         }
         out.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.polygon.cmp(&b.polygon)));
+    }
+}
+
+/// Materials named once each, with reflectance in [0, 1) and emission finite, ≥ 0.
+fn check_materials(materials: &[Material]) -> Result<(), Error> {
+    let mut seen = std::collections::HashSet::new();
+    for m in materials {
+        if !seen.insert(m.name.as_str()) {
+            return Err(Error::DuplicateMaterial {
+                name: m.name.clone(),
+            });
+        }
+        let r = m.reflectance.0;
+        if !r.iter().all(|c| c.is_finite() && (0.0..1.0).contains(c)) {
+            return Err(Error::Material {
+                material: m.name.clone(),
+                what: "reflectance",
+                value: r,
+                rule: "each channel must be in [0, 1)",
+            });
+        }
+        let e = m.emission.0;
+        if !e.iter().all(|c| c.is_finite() && *c >= 0.0) {
+            return Err(Error::Material {
+                material: m.name.clone(),
+                what: "emission",
+                value: e,
+                rule: "each channel must be finite and >= 0",
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The back side of a two-sided polygon: its vertices in reverse order (the first
+/// kept), named `NAME:back`, in group `GROUP:back`, its patch grid turned to match the
+/// front's cells where its texture's sides are the front's swapped (as for a triangle
+/// or a parallelogram, whose edge frame then swaps u and v).
+fn back_side(pd: &PolygonDesc) -> PolygonDesc {
+    let mut vertices = pd.vertices.clone();
+    if vertices.len() > 1 {
+        vertices[1..].reverse();
+    }
+    let grid = match pd.grid {
+        PatchGrid::Cells { nu, nv } => {
+            let sides = |v: &[Vec3]| crate::polygon::texture_side_lengths(v);
+            let swapped = match (sides(&pd.vertices), sides(&vertices)) {
+                (Some((lu, lv)), Some((bu, bv))) => {
+                    (lu - bv).abs() + (lv - bu).abs() < (lu - bu).abs() + (lv - bv).abs()
+                }
+                _ => false,
+            };
+            if swapped {
+                PatchGrid::Cells { nu: nv, nv: nu }
+            } else {
+                pd.grid
+            }
+        }
+        size => size,
+    };
+    PolygonDesc {
+        name: format!("{}:back", pd.name),
+        vertices,
+        material: pd.material,
+        grid,
+        group: pd.group.as_ref().map(|g| format!("{g}:back")),
+        obstruction: false,
+        two_sided: true,
     }
 }
 

@@ -34,6 +34,7 @@ pub(crate) fn rect(
         grid,
         group: None,
         obstruction: false,
+        two_sided: false,
     }
 }
 

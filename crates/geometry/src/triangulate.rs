@@ -237,6 +237,7 @@ mod tests {
                     grid: PatchGrid::Size(0.25),
                     group: Some("g".into()),
                     obstruction: false,
+                    two_sided: false,
                 })
                 .collect(),
             camera: None,

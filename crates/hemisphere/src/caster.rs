@@ -171,12 +171,7 @@ impl Caster for Scan {
             if id == skip as usize || cull.is_some_and(|n| poly.wholly_behind(o, n.as_dvec3())) {
                 continue;
             }
-            hits.test(
-                poly,
-                id as PolygonId,
-                &poly.terms().at(origin),
-                0..dirs.len(),
-            );
+            hits.test(poly, id as PolygonId, &poly.terms_at(origin), 0..dirs.len());
         }
         hits.hits_into(polygons, dirs, out);
     }

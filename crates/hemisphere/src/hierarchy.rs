@@ -409,7 +409,7 @@ impl Hierarchy {
             if behind && forward {
                 continue;
             }
-            let terms = self.terms[k].at(at.o);
+            let terms = scene.seen(item.id as usize, self.terms[k].at(at.o));
             if terms.num == 0.0 || terms.num.is_nan() {
                 continue;
             }
@@ -486,7 +486,7 @@ impl Hierarchy {
                     if id == ray.skip {
                         continue;
                     }
-                    let h = self.terms[k].at(ray.origin);
+                    let h = scene.seen(id as usize, self.terms[k].at(ray.origin));
                     let poly = || &polygons[id as usize];
                     let shape = &self.items[k].shape;
                     if let Some((t, u, v, front)) = shape.hit_from(poly, &h, ray.dir, ray.t_max) {
@@ -522,7 +522,7 @@ impl Hierarchy {
                 }
                 // (The polygon's own terms and shape, kept in tree order:
                 // `Polygon::intersect`'s answer.)
-                let h = self.terms[k].at(ray.origin);
+                let h = scene.seen(item.id as usize, self.terms[k].at(ray.origin));
                 let poly = || &polygons[item.id as usize];
                 if let Some((t, u, v, front)) = item.shape.hit_from(poly, &h, ray.dir, ray.t_max) {
                     if best.is_none_or(|b| t < b.t || (t == b.t && item.id < b.polygon)) {
@@ -1070,7 +1070,8 @@ impl Caster for Hierarchy {
                     if id == skip || cull.is_some_and(|n| poly.wholly_behind(o, n.as_dvec3())) {
                         continue;
                     }
-                    hits.test_with::<true>(poly, id, &self.terms[i].at(origin), k..k + 1);
+                    let terms = scene.seen(id as usize, self.terms[i].at(origin));
+                    hits.test_with::<true>(poly, id, &terms, k..k + 1);
                 }
                 // A polygon met no nearer than the best so far could still win a tie.
                 hits.best_t()[k] as f64 * (1.0 + 1e-6) + slack

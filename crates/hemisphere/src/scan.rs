@@ -184,7 +184,7 @@ impl Hemisphere {
             span(cells.clone());
             s.hits.test_with::<ANY_ORDER>(poly, id, terms, cells);
         };
-        let terms = poly.terms().at(at.o);
+        let terms = poly.terms_at(at.o);
         // The grid's culling, ring by ring as it queries them: a polygon wholly
         // behind the plane by more than its reach is skipped in every ring whose
         // rays all leave the plane forwards. (It should have no hits there; skipping

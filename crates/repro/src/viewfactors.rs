@@ -23,6 +23,7 @@ fn polygon(name: &str, vertices: Vec<Vec3>, grid: PatchGrid) -> PolygonDesc {
         grid,
         group: None,
         obstruction: false,
+        two_sided: false,
     }
 }
 

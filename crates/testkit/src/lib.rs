@@ -76,6 +76,7 @@ pub fn convex_polygon(idx: usize) -> impl Strategy<Value = PolygonDesc> {
         grid: PatchGrid::Cells { nu, nv },
         group: None,
         obstruction: false,
+        two_sided: false,
     })
 }
 
@@ -97,6 +98,27 @@ pub fn random_scene(max: usize) -> impl Strategy<Value = SceneDesc> {
             polygons,
             camera: None,
         })
+}
+
+/// `desc` with polygon k two-sided where `sides[k % len]` says so (none if `sides` is
+/// empty; obstructions stay one-sided).
+pub fn with_two_sided(mut desc: SceneDesc, sides: &[bool]) -> SceneDesc {
+    if !sides.is_empty() {
+        for (k, p) in desc.polygons.iter_mut().enumerate() {
+            p.two_sided = sides[k % sides.len()] && !p.obstruction;
+        }
+    }
+    desc
+}
+
+/// Flags for [`with_two_sided`]: none two-sided in about a third of the cases, else a
+/// random mix.
+pub fn two_sided_flags() -> impl Strategy<Value = Vec<bool>> {
+    prop_oneof![
+        Just(Vec::new()),
+        proptest::collection::vec(any::<bool>(), 1..8),
+        proptest::collection::vec(any::<bool>(), 1..8),
+    ]
 }
 
 /// A ray origin in `[-3, 3]³` and a unit direction.

@@ -5,7 +5,7 @@ use proptest::prelude::*;
 use rad_accel::{BruteForce, GridResolution, VoxelGrid, VoxelGridConfig, WideBvh};
 use rad_core::{Hit, Ray, RayCast, NO_POLYGON};
 use rad_geometry::Scene;
-use rad_testkit::{random_scene, ray};
+use rad_testkit::{random_scene, ray, two_sided_flags, with_two_sided};
 
 fn same(a: Option<Hit>, b: Option<Hit>) -> Result<(), TestCaseError> {
     match (a, b) {
@@ -46,9 +46,10 @@ proptest! {
     #[test]
     fn grid_closest_and_all_hits_match_brute_force(
         desc in random_scene(12),
+        sides in two_sided_flags(),
         rays in proptest::collection::vec(ray(), 1..40),
     ) {
-        let scene = Scene::new(desc).unwrap();
+        let scene = Scene::new(with_two_sided(desc, &sides)).unwrap();
         let brute = BruteForce::new(&scene);
         let mut bs = brute.new_scratch();
         let (mut ha, mut hb) = (Vec::new(), Vec::new());
@@ -78,11 +79,12 @@ proptest! {
     #[test]
     fn shared_origin_queries_match_single_rays(
         desc in random_scene(12),
+        sides in two_sided_flags(),
         patch_pick in 0usize..1000,
         dirs in proptest::collection::vec(rad_testkit::unit_vector(), 1..60),
     ) {
         // From a patch centre, over its hemisphere, as a hemisphere casts.
-        let scene = Scene::new(desc).unwrap();
+        let scene = Scene::new(with_two_sided(desc, &sides)).unwrap();
         let patch = &scene.patches()[patch_pick % scene.patches().len()];
         let n = patch.normal;
         let dirs: Vec<Vec3> = dirs.into_iter().map(|d| if d.dot(n) > 0.0 { d } else { d - 2.0 * d.dot(n) * n }).filter(|d| d.dot(n) > 1e-3).collect();

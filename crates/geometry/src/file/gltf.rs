@@ -453,6 +453,7 @@ fn add_mesh(
                 grid: PatchGrid::Size(patch_size),
                 group: Some(group.clone()),
                 obstruction: false,
+                two_sided: false,
             });
         }
     }

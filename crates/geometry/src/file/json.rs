@@ -53,6 +53,10 @@ struct FilePolygon {
     /// Blocks rays but gets no view factors (`coherad viewfactors`: no row, no column).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     obstruction: bool,
+    /// Seen, lit and shading from both sides: two back-to-back polygons, the second
+    /// named `NAME:back` (see [`PolygonDesc::two_sided`]).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    two_sided: bool,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -167,6 +171,7 @@ pub fn scene_desc_from_json(
             grid,
             group: p.group,
             obstruction: p.obstruction,
+            two_sided: p.two_sided,
         });
     }
     let camera = file.camera.map(|c| Camera {
@@ -206,6 +211,7 @@ pub fn scene_desc_to_json(desc: &SceneDesc, description: Option<&str>) -> String
                     patch_size,
                     group: p.group.clone(),
                     obstruction: p.obstruction,
+                    two_sided: p.two_sided,
                 }
             })
             .collect(),
@@ -249,6 +255,7 @@ pub fn scene_desc_to_json_indexed(desc: &SceneDesc, description: Option<&str>) -
             patch_size,
             group: p.group.clone(),
             obstruction: p.obstruction,
+            two_sided: p.two_sided,
         });
     }
     let mut s = String::from("{\n");

@@ -41,6 +41,7 @@ impl MeshBuilder {
             grid: PatchGrid::Size(self.patch_size),
             group: Some(group.to_string()),
             obstruction: false,
+            two_sided: false,
         });
     }
 }

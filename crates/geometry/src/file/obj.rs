@@ -136,6 +136,7 @@ fn obj_desc(
                 grid: PatchGrid::Size(patch_size),
                 group: Some(model.name.clone()),
                 obstruction: false,
+                two_sided: false,
             });
             start += arity;
         }

@@ -187,6 +187,7 @@ fn desc(
             grid,
             group: Some(group_of(target)),
             obstruction: false,
+            two_sided: false,
         });
     }
     control.emissivity = surfaces
@@ -202,6 +203,7 @@ fn desc(
             grid: PatchGrid::Cells { nu: 1, nv: 1 },
             group: None,
             obstruction: true,
+            two_sided: false,
         });
     }
     SceneDesc {

@@ -108,6 +108,7 @@ pub fn cornell_box(patch_size: f32) -> SceneDesc {
         grid: size,
         group: None,
         obstruction: false,
+        two_sided: false,
     };
     let mut polygons = Vec::new();
     // Floor, cut around the two block footprints (y = 0, normal +y).

@@ -41,6 +41,7 @@ fn loft_cut(cut: impl Fn(&[Vec3]) -> Vec<Vec<Vec3>>) -> SceneDesc {
                 grid: ONE,
                 group: None,
                 obstruction: false,
+                two_sided: false,
             });
         }
     }
@@ -140,6 +141,7 @@ pub fn blob_room() -> SceneDesc {
             grid: ONE,
             group: None,
             obstruction: false,
+            two_sided: false,
         });
     }
     SceneDesc {

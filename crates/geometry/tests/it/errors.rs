@@ -20,6 +20,7 @@ fn one(vertices: Vec<Vec3>, grid: PatchGrid) -> SceneDesc {
             grid,
             group: None,
             obstruction: false,
+            two_sided: false,
         }],
         camera: None,
     }
@@ -327,6 +328,7 @@ fn scenes_outside_the_numeric_range_are_refused() {
         grid: rad_geometry::PatchGrid::Cells { nu: 1, nv: 1 },
         group: None,
         obstruction: false,
+        two_sided: false,
     });
     let e = Scene::new(d).unwrap_err().to_string();
     assert!(
@@ -401,4 +403,14 @@ fn coplanar_overlapping_polygons_facing_the_same_way_are_refused_by_name() {
     other.vertices = vec![m1, b, c2, m2];
     halves.polygons.push(other);
     Scene::new(halves).unwrap();
+}
+
+#[test]
+fn a_two_sided_obstruction_is_refused() {
+    let mut desc = one(square(), G);
+    desc.polygons[0].obstruction = true;
+    desc.polygons[0].two_sided = true;
+    let p = problem(desc);
+    assert!(matches!(p, PolygonProblem::TwoSidedObstruction), "{p:?}");
+    assert!(p.to_string().contains("both two_sided and an obstruction"));
 }

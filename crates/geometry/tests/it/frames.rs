@@ -20,6 +20,7 @@ fn scene(vertices: Vec<Vec3>, grid: PatchGrid) -> Scene {
             grid,
             group: None,
             obstruction: false,
+            two_sided: false,
         }],
         camera: None,
     })

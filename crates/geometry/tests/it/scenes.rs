@@ -268,3 +268,47 @@ fn the_canyon_has_its_facets_each_facing_out_of_its_building() {
         }
     }
 }
+
+/// `two_sided` in the JSON format: the polygon and its reverse, appended after the
+/// file's polygons, with the front's cells (a 3 × 5 grid turned to 5 × 3), groups kept
+/// apart, and the flag written back.
+#[test]
+fn two_sided_polygons_get_a_back_with_the_fronts_cells() {
+    let json = r#"{"materials": [{"name": "m", "reflectance": [0.5, 0.5, 0.5]}],
+      "polygons": [
+        {"name": "fin", "material": "m", "patches": [3, 5], "group": "fins", "two_sided": true,
+         "vertices": [[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0]]},
+        {"name": "floor", "material": "m", "patches": [1, 1],
+         "vertices": [[0, 0, -1], [2, 0, -1], [2, 1, -1], [0, 1, -1]]}
+      ]}"#;
+    let desc = rad_geometry::file::scene_desc_from_json(json, None).unwrap();
+    assert!(desc.polygons[0].two_sided && !desc.polygons[1].two_sided);
+    let again = rad_geometry::file::scene_desc_to_json(&desc, None);
+    assert!(again.contains("\"two_sided\": true"), "{again}");
+    assert_eq!(again.matches("two_sided").count(), 1);
+    let scene = Scene::new(desc).unwrap();
+    let names: Vec<&str> = scene.polygons().iter().map(|p| p.name()).collect();
+    assert_eq!(names, ["fin", "floor", "fin:back"]);
+    let (front, back) = (&scene.polygons()[0], &scene.polygons()[2]);
+    assert!(front.front_only() && back.front_only() && !scene.polygons()[1].front_only());
+    assert_eq!(front.normal(), -back.normal());
+    assert_eq!((front.grid(), back.grid()), ((3, 5), (5, 3)));
+    assert_eq!(scene.group(2), Some("fins:back"));
+    // Patches polygon by polygon: the back's 15 last, at the front's centres.
+    assert_eq!(scene.patches().len(), 31);
+    let centres = |poly: u32| {
+        let mut c: Vec<[u32; 3]> = scene
+            .patches()
+            .iter()
+            .filter(|p| p.polygon == poly)
+            .map(|p| (p.center * 1e4).round().to_array().map(|x| x as i64 as u32))
+            .collect();
+        c.sort();
+        c
+    };
+    assert_eq!(centres(0), centres(2));
+    assert!(scene.patches()[16..].iter().all(|p| p.polygon == 2));
+    assert!(scene.patches()[16..]
+        .iter()
+        .all(|p| (p.normal + front.normal()).length() < 1e-6));
+}

@@ -7,7 +7,7 @@ use rad_core::RayCast;
 use rad_geometry::scenes::{cornell_box, cube, loft, CORNELL_PATCH_MM};
 use rad_geometry::{Scene, SceneDesc};
 use rad_hemisphere::{Caster, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, ScanScratch};
-use rad_testkit::random_scene;
+use rad_testkit::{random_scene, two_sided_flags, with_two_sided};
 
 fn grid(scene: &Scene, density: f64) -> VoxelGrid<'_> {
     let resolution = GridResolution::Auto {
@@ -57,6 +57,7 @@ proptest! {
     #[test]
     fn scan_matches_the_grid_on_random_scenes(
         desc in random_scene(10),
+        sides in two_sided_flags(),
         n_theta in 1u32..40,
         n_phi in 1u32..120,
         shift in prop_oneof![Just(0.0), Just(0.5), 0.0f64..1.0],
@@ -65,7 +66,7 @@ proptest! {
         offset in prop_oneof![Just(0.0f32), Just(37.0), Just(-300.0)],
     ) {
         // Far from the origin, f32 rounding is coarser than the scene's details.
-        let mut desc = desc;
+        let mut desc = with_two_sided(desc, &sides);
         for p in &mut desc.polygons {
             for v in &mut p.vertices {
                 *v += glam::Vec3::new(offset, -0.5 * offset, 0.25 * offset);
@@ -100,12 +101,13 @@ proptest! {
     #[test]
     fn scans_match_the_grid_on_many_small_polygons(
         desc in random_scene(160),
+        sides in two_sided_flags(),
         scales in proptest::collection::vec(0.03f32..0.6, 1..16),
         n_theta in 10u32..60,
         n_phi in 40u32..240,
         picks in proptest::collection::vec(any::<prop::sample::Index>(), 1..6),
     ) {
-        let mut desc = desc;
+        let mut desc = with_two_sided(desc, &sides);
         shrink(&mut desc, &scales);
         let scene = Scene::new(desc);
         prop_assume!(scene.is_ok());
@@ -216,6 +218,7 @@ fn skewed_pentagon(
         grid: rad_geometry::PatchGrid::Cells { nu: 3, nv: 3 },
         group: None,
         obstruction: false,
+        two_sided: false,
     }
 }
 
@@ -294,6 +297,7 @@ fn scan_matches_the_grid_around_a_pentagon_off_its_plane() {
         grid: rad_geometry::PatchGrid::Cells { nu: 2, nv: 2 },
         group: None,
         obstruction: false,
+        two_sided: false,
     }];
     for k in 0..300 {
         let side = if k % 2 == 0 { 1.0 } else { -1.0 };
@@ -313,6 +317,7 @@ fn scan_matches_the_grid_around_a_pentagon_off_its_plane() {
             grid: rad_geometry::PatchGrid::Cells { nu: 1, nv: 1 },
             group: None,
             obstruction: false,
+            two_sided: false,
         });
     }
     let scene = Scene::new(SceneDesc {
@@ -340,12 +345,13 @@ proptest! {
     #[test]
     fn scan_single_rays_match_the_grid(
         desc in random_scene(10),
+        sides in two_sided_flags(),
         pick in any::<prop::sample::Index>(),
         dirs in proptest::collection::vec(rad_testkit::unit_vector(), 1..40),
         density in prop_oneof![Just(0.5), Just(4.0)],
     ) {
         use rad_hemisphere::Scan;
-        let scene = Scene::new(desc).unwrap();
+        let scene = Scene::new(with_two_sided(desc, &sides)).unwrap();
         let grid = grid(&scene, density);
         let tree = Hierarchy::new(&scene);
         let mut hs = tree.scratch();
@@ -418,8 +424,8 @@ proptest! {
                 emission: rad_core::Rgb([0.0; 3]),
             }],
             polygons: vec![
-                PolygonDesc { name: "floor".into(), vertices: floor, material: 0, grid: one, group: None, obstruction: false },
-                PolygonDesc { name: "tilted".into(), vertices: tilted, material: 0, grid: one, group: None, obstruction: false },
+                PolygonDesc { name: "floor".into(), vertices: floor, material: 0, grid: one, group: None, obstruction: false, two_sided: false },
+                PolygonDesc { name: "tilted".into(), vertices: tilted, material: 0, grid: one, group: None, obstruction: false, two_sided: false },
             ],
             camera: None,
         };

@@ -29,6 +29,7 @@ fn poly(name: &str, vertices: Vec<Vec3>, grid: PatchGrid, group: Option<&str>) -
         grid,
         group: group.map(str::to_string),
         obstruction: false,
+        two_sided: false,
     }
 }
 
@@ -627,4 +628,49 @@ fn bad_view3d_files_are_refused_by_line() {
         let err = vs3(&text).map(|_| ()).unwrap_err();
         assert!(err.contains(says), "{err}\n  wanted: {says}");
     }
+}
+
+/// A two-sided plate between two plates: each side sees the plate it faces (the closed
+/// form of parallel squares) and nothing else, no ray meets a back, and the side facing
+/// the bottom is what a one-sided plate would be, to the bit; one-sided, the top sees
+/// the plate's back instead.
+#[test]
+fn a_two_sided_plate_is_seen_from_both_sides() {
+    let plates = |two_sided: bool| {
+        let panel = PolygonDesc {
+            two_sided,
+            ..poly("panel", square(1.0, false), GRID, None)
+        };
+        scene(vec![
+            poly("bottom", square(0.0, true), GRID, None),
+            panel,
+            poly("top", square(2.0, false), GRID, None),
+        ])
+    };
+    let (two, one) = (plates(true), plates(false));
+    assert_eq!(two.polygons().len(), 4);
+    assert_eq!(two.polygons()[3].name(), "panel:back");
+    assert!(two.polygons()[3].normal().dot(two.polygons()[1].normal()) < -0.999);
+    let vf = run(&two, DEFAULT_ORIGINS, Enclosure::Raw, Grouping::Polygon);
+    assert_eq!(vf.names[3], "panel:back");
+    let c = parallel_rectangles(1.0, 1.0);
+    // bottom 0, panel 1, top 2, panel:back 3.
+    for (i, j) in [(0, 1), (1, 0), (2, 3), (3, 2)] {
+        let f = vf.matrix.get(i, j);
+        assert!((f - c).abs() < 1e-3, "F_{i}{j} = {f}, closed form {c}");
+    }
+    for i in 0..4 {
+        for j in 0..4 {
+            if ![(0, 1), (1, 0), (2, 3), (3, 2)].contains(&(i, j)) {
+                assert_eq!(vf.matrix.get(i, j), 0.0, "F_{i}{j}");
+            }
+        }
+        assert_eq!(vf.back[i], 0.0, "surface {i} meets a back");
+    }
+    let vf1 = run(&one, DEFAULT_ORIGINS, Enclosure::Raw, Grouping::Polygon);
+    for (i, j) in [(0, 1), (1, 0)] {
+        assert_eq!(vf.matrix.get(i, j), vf1.matrix.get(i, j));
+    }
+    assert!((vf1.back[2] - c).abs() < 1e-3, "{}", vf1.back[2]);
+    assert_eq!(vf1.matrix.get(2, 1), 0.0);
 }
