@@ -986,6 +986,12 @@ fn solve(
         );
     }
     let hemi = hemisphere(resolution)?;
+    let sc = &scene.scene;
+    if (0..sc.patches().len()).all(|p| sc.patch_material(p as u32).emission.0 == [0.0; 3]) {
+        eprintln!(
+            "warning: no polygon emits light (every material's emission is 0): every radiosity will be 0; give a material an \"emission\" (or use --materials)"
+        );
+    }
     let storage = match how.storage {
         StorageKind::Auto => None,
         StorageKind::Stored => Some(Storage::Stored),

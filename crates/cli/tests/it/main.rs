@@ -1233,3 +1233,225 @@ fn assert_glb_finite(name: &str, glb: &Path) {
         }
     }
 }
+
+/// The names of the temporaries (`*.tmp`) left in `dir`.
+fn temporaries(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect()
+}
+
+/// Every command that writes a file, on the cube, writing `out` (a solution for the
+/// cube at `solution`).
+fn writing_commands(cube: &str, solution: &str, out: &str, ext: &str) -> Vec<Vec<String>> {
+    let list: Vec<Vec<&str>> = match ext {
+        "json" => vec![
+            vec!["formfactors", cube, "--resolution", "20x80", "--out", out],
+            vec!["solve", cube, "--resolution", "20x80", "--out", out],
+            vec![
+                "viewfactors",
+                cube,
+                "--by",
+                "patch",
+                "--resolution",
+                "20x80",
+                "--out",
+                out,
+            ],
+        ],
+        "exr" => vec![vec!["render", cube, "--solution", solution, "--out", out]],
+        "glb" => vec![vec!["export", cube, "--solution", solution, "--out", out]],
+        "bin" | "mtx" | "csv" => vec![vec![
+            "viewfactors",
+            cube,
+            "--by",
+            "patch",
+            "--resolution",
+            "20x80",
+            "--format",
+            ext,
+            "--out",
+            out,
+        ]],
+        _ => unreachable!(),
+    };
+    list.into_iter()
+        .map(|a| a.into_iter().map(str::to_string).collect())
+        .collect()
+}
+
+#[test]
+fn a_full_disk_is_a_clear_error_that_keeps_the_old_file() {
+    // The disk fills at 4 KB: a shell sets the file-size limit (`ulimit -f 8`, in
+    // blocks of 512 or 1,024 bytes) and ignores SIGXFSZ, so that writes past it fail
+    // with EFBIG as they would with ENOSPC on a full disk; every output is larger.
+    let dir = tempfile::tempdir().unwrap();
+    let cube = bench_scene("cube.json");
+    let solution = dir.path().join("cube.solution.json");
+    let made = coherad(&[
+        "solve",
+        cube.to_str().unwrap(),
+        "--resolution",
+        "10x40",
+        "--out",
+        solution.to_str().unwrap(),
+    ]);
+    assert!(made.status.success());
+    for ext in ["json", "exr", "glb", "bin", "mtx", "csv"] {
+        let out = dir.path().join(format!("out.{ext}"));
+        let (c, s, o) = (
+            cube.to_str().unwrap(),
+            solution.to_str().unwrap(),
+            out.to_str().unwrap(),
+        );
+        for args in writing_commands(c, s, o, ext) {
+            std::fs::write(&out, b"old").unwrap();
+            let run = Command::new("/bin/sh")
+                .arg("-c")
+                .arg("trap '' XFSZ; ulimit -f 8; exec \"$0\" \"$@\"")
+                .arg(env!("CARGO_BIN_EXE_coherad"))
+                .args(&args)
+                .arg("--quiet")
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&run.stderr);
+            assert_eq!(run.status.code(), Some(1), "{args:?}: {err}");
+            assert!(
+                err.contains("cannot write") && err.contains(o) && err.contains("too large"),
+                "{args:?}: {err}"
+            );
+            assert_eq!(std::fs::read(&out).unwrap(), b"old", "{args:?}");
+            assert!(temporaries(dir.path()).is_empty(), "{args:?}");
+        }
+    }
+}
+
+#[test]
+fn unwritable_output_folders_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let cube = bench_scene("cube.json");
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, b"x").unwrap();
+    let locked = dir.path().join("locked");
+    std::fs::create_dir(&locked).unwrap();
+    let mut outs = vec![
+        (dir.path().join("no/such/folder/out.json"), "No such file"),
+        (file.join("out.json"), "Not a directory"),
+    ];
+    // A read-only folder (unless this runs as root, whom permissions do not stop:
+    // probed by writing there first).
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
+    if std::fs::write(locked.join("probe"), b"").is_err() {
+        outs.push((locked.join("out.json"), "Permission denied"));
+    }
+    for (out, why) in outs {
+        let run = coherad(&[
+            "formfactors",
+            cube.to_str().unwrap(),
+            "--resolution",
+            "6x24",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{err}");
+        assert!(
+            err.contains("cannot write")
+                && err.contains(out.to_str().unwrap())
+                && err.contains(why),
+            "{err}"
+        );
+    }
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
+}
+
+#[test]
+fn runs_writing_one_output_at_once_leave_one_whole_file() {
+    // Four runs of each writing command start together on the same output: each
+    // renames a whole file into place, so the output is one of them, to the byte (they
+    // are all the same here, but for a solution's timings), and no temporary is left.
+    let dir = tempfile::tempdir().unwrap();
+    let cube = bench_scene("cube.json");
+    let solution = dir.path().join("cube.solution.json");
+    let made = coherad(&[
+        "solve",
+        cube.to_str().unwrap(),
+        "--resolution",
+        "10x40",
+        "--out",
+        solution.to_str().unwrap(),
+    ]);
+    assert!(made.status.success());
+    for ext in ["json", "exr", "bin"] {
+        let out = dir.path().join(format!("out.{ext}"));
+        let (c, s, o) = (
+            cube.to_str().unwrap(),
+            solution.to_str().unwrap(),
+            out.to_str().unwrap(),
+        );
+        for args in writing_commands(c, s, o, ext) {
+            let alone = coherad(&args.iter().map(String::as_str).collect::<Vec<_>>());
+            assert!(alone.status.success(), "{args:?}");
+            let want = std::fs::read(&out).unwrap();
+            std::fs::remove_file(&out).unwrap();
+            let children: Vec<_> = (0..4)
+                .map(|_| {
+                    Command::new(env!("CARGO_BIN_EXE_coherad"))
+                        .args(&args)
+                        .arg("--quiet")
+                        .spawn()
+                        .unwrap()
+                })
+                .collect();
+            for mut child in children {
+                assert!(child.wait().unwrap().success(), "{args:?}");
+            }
+            // (A solution records its run's timings: compare the rest.)
+            let same = |a: &[u8], b: &[u8]| match (
+                serde_json::from_slice::<serde_json::Value>(a),
+                serde_json::from_slice::<serde_json::Value>(b),
+            ) {
+                (Ok(mut x), Ok(mut y)) => {
+                    for v in [&mut x, &mut y] {
+                        v.as_object_mut().map(|o| o.remove("timings"));
+                    }
+                    x == y
+                }
+                _ => a == b,
+            };
+            let got = std::fs::read(&out).unwrap();
+            assert!(same(&got, &want), "{args:?}: the output differs");
+            assert!(temporaries(dir.path()).is_empty(), "{args:?}");
+        }
+    }
+}
+
+#[test]
+fn a_scene_that_emits_nothing_is_warned_of() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("s.json");
+    let args = |scene: &str| {
+        coherad(&[
+            "solve",
+            bench_scene(scene).to_str().unwrap(),
+            "--resolution",
+            "6x24",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let dark = args("cube.json");
+    let err = String::from_utf8_lossy(&dark.stderr);
+    assert!(
+        dark.status.success() && err.contains("no polygon emits light"),
+        "{err}"
+    );
+    let lit = args("cornell.json");
+    let err = String::from_utf8_lossy(&lit.stderr);
+    assert!(lit.status.success() && !err.contains("emits"), "{err}");
+}
