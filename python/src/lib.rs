@@ -9,7 +9,7 @@ use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use rad_pipeline::solve::{solve_scene, SolveOptions};
-use rad_pipeline::viewfactors::{surface_count, view_factors, Grouping, ViewFactorOptions};
+use rad_pipeline::viewfactors::{count_surfaces, view_factors, Grouping, ViewFactorOptions};
 use rad_pipeline::{
     CasterKind, Enclosure, Hemisphere, HemisphereConfig, LoadOptions, Mode, Rgb, RowMethod,
     SceneFile, Solver,
@@ -256,7 +256,7 @@ impl Scene {
             opts.caster = c.parse::<CasterKind>().map_err(fail)?;
         }
         opts.script_f = script_f;
-        let n = surface_count(scene, opts.by).map_err(fail)?;
+        let n = count_surfaces(scene, opts.by).map_err(fail)?;
         if n > MAX_DENSE_SURFACES {
             return Err(fail(format!(
                 "view factors by {by}: {n} surfaces, over the {MAX_DENSE_SURFACES} a dense matrix is made for ({} GB); write it with `coherad viewfactors --format mtx` (scipy.io.mmread reads it) or `--format bin` (the README gives its numpy reader)",

@@ -7,6 +7,7 @@ use rad_pipeline::images::{radiance_of, render_to_files};
 use rad_pipeline::output::{
     write_atomic, write_patches_json, write_row_json, write_rows_footer, write_rows_header,
 };
+use rad_pipeline::share;
 use rad_pipeline::solve::{read_solution, solve_scene, SolveOptions};
 use rad_pipeline::viewfactors::{
     check_format, count_surfaces, stream_patch_matrix, view_factors, write_view_factors, Grouping,
@@ -37,6 +38,14 @@ const EXIT_USAGE: u8 = 2;
 const EXIT_NOT_CONVERGED: u8 = 3;
 
 /// A note or summary on standard error, unless `--quiet`.
+#[cfg(feature = "mpi")]
+#[path = "ranks_mpi.rs"]
+mod ranks;
+#[cfg(not(feature = "mpi"))]
+#[path = "ranks_one.rs"]
+mod ranks;
+use ranks::Ranks;
+
 macro_rules! say {
     ($($arg:tt)*) => {
         if !QUIET.load(Ordering::Relaxed) {
@@ -371,7 +380,22 @@ fn main() -> ExitCode {
             return ExitCode::from(EXIT_ERROR);
         }
     }
-    match run(&cli) {
+    let ranks = Ranks::init();
+    if ranks.rank() > 0 {
+        // Rank 0 speaks for the run; the others' errors reach it in the gather.
+        QUIET.store(true, Ordering::Relaxed);
+    }
+    let result = run(&cli, &ranks);
+    // Every rank gathers once: one that ended before it sends its error (or nothing).
+    let result = if ranks.gathered() {
+        result
+    } else {
+        ranks.gather(result.map(|()| Vec::new())).map(|_| ())
+    };
+    if ranks.rank() > 0 {
+        return ExitCode::SUCCESS;
+    }
+    match result {
         Ok(()) if NOT_CONVERGED.load(Ordering::Relaxed) => ExitCode::from(EXIT_NOT_CONVERGED),
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -456,8 +480,14 @@ fn parse_reflectance(text: &str) -> Result<Rgb, String> {
     Ok(Rgb(rgb))
 }
 
-fn run(cli: &Cli) -> Result<(), String> {
+fn run(cli: &Cli, ranks: &Ranks) -> Result<(), String> {
     let load = |path: &Path| load_scene_file(cli, path);
+    if ranks.size() > 1 && !matches!(cli.command, Command::Formfactors { .. }) {
+        return Err(format!(
+            "under MPI ({} ranks) only `coherad formfactors` is shared so far: run this command as one process",
+            ranks.size()
+        ));
+    }
     match &cli.command {
         Command::Patches { scene, out } => {
             let scene = load(scene)?;
@@ -472,7 +502,7 @@ fn run(cli: &Cli) -> Result<(), String> {
         } => {
             let scene = load(scene)?;
             let method = rows.method(&scene);
-            formfactors(&scene, resolution, patches, method, out.as_deref())
+            formfactors(&scene, resolution, patches, method, out.as_deref(), ranks)
         }
         Command::Viewfactors {
             scene,
@@ -612,14 +642,14 @@ fn formfactors(
     patches: &str,
     method: RowMethod,
     out: Option<&Path>,
+    ranks: &Ranks,
 ) -> Result<(), String> {
     let hemi = hemisphere(resolution)?;
     let scene_ = &scene.scene;
     let ids = parse_patch_list(patches, scene_.patches().len()).map_err(|e| e.to_string())?;
-    let bar = row_bar(&hemi, method, ids.len());
-    let made = rad_pipeline::rows(scene_, &hemi, method, &ids, &|n| bar.set_position(n as u64))
-        .map_err(|e| e.to_string())?;
-    bar.finish_and_clear();
+    let Some(made) = shared_rows(scene, &hemi, method, &ids, ranks)? else {
+        return Ok(()); // (a rank but the first: its rows went to rank 0)
+    };
     report_estimates(made.method, &made.stats);
     let leaked: Vec<u32> = made
         .rows
@@ -653,6 +683,64 @@ fn formfactors(
         }
         write_rows_footer(w)
     })
+}
+
+/// The rows of `ids` by `method`, made by this process alone or shared among MPI
+/// ranks ([`rad_pipeline::share`]: each rank its share, balanced by work units, the
+/// rows gathered on rank 0 in the list's order, the same to the bit); `None` on the
+/// ranks but the first. Each rank's part begins with a fingerprint of the run (scene,
+/// resolution, method, patch list), so that ranks started on different runs are an
+/// error, not a mixed output.
+fn shared_rows(
+    scene: &SceneFile,
+    hemi: &Hemisphere,
+    method: RowMethod,
+    ids: &[u32],
+    ranks: &Ranks,
+) -> Result<Option<rad_pipeline::Rows>, String> {
+    let scene_ = &scene.scene;
+    if ranks.size() == 1 {
+        let bar = row_bar(hemi, method, ids.len());
+        let made = rad_pipeline::rows(scene_, hemi, method, ids, &|n| bar.set_position(n as u64))
+            .map_err(|e| e.to_string())?;
+        bar.finish_and_clear();
+        return Ok(Some(made));
+    }
+    let shares = share::shares(scene_, method, ids, ranks.size());
+    let mine = &shares[ranks.rank()];
+    let what = format!("{}x{} {method} {ids:?}", hemi.n_theta(), hemi.n_phi());
+    let fingerprint = share::run_fingerprint(scene.hash, &what).to_le_bytes();
+    let bar = row_bar(hemi, method, mine.patches.len());
+    let part = rad_pipeline::rows(scene_, hemi, method, &mine.patches, &|n| {
+        bar.set_position(n as u64)
+    })
+    .map(|r| [&fingerprint[..], &share::encode_rows(&r)].concat())
+    .map_err(|e| e.to_string());
+    bar.finish_and_clear();
+    let Some(parts) = ranks.gather(part)? else {
+        return Ok(None);
+    };
+    let mut made = Vec::with_capacity(parts.len());
+    for (r, p) in parts.iter().enumerate() {
+        if p.get(..8) != Some(&fingerprint[..]) {
+            return Err(format!(
+                "rank {r} made rows of another run (another scene file, resolution, method or patch list): start every rank with the same command"
+            ));
+        }
+        made.push(share::decode_rows(&p[8..], method).map_err(|e| format!("rank {r}: {e}"))?);
+    }
+    let units: Vec<String> = shares.iter().map(|s| format!("{:.0}", s.units)).collect();
+    let mean = shares.iter().map(|s| s.units).sum::<f64>() / shares.len() as f64;
+    let worst = shares.iter().map(|s| s.units).fold(0.0, f64::max);
+    say!(
+        "mpi: {} ranks, work units {} (the largest {:.3} of the mean)",
+        shares.len(),
+        units.join(" / "),
+        worst / mean
+    );
+    share::join_rows(method, ids, made)
+        .map(Some)
+        .map_err(|e| e.to_string())
 }
 
 /// The view-factor options of `coherad viewfactors`' flags.

@@ -11,6 +11,7 @@ pub mod output;
 mod parse;
 mod rows;
 mod scene_file;
+pub mod share;
 pub mod solve;
 mod storage;
 pub mod viewfactors;

@@ -145,12 +145,6 @@ fn surfaces(scene: &Scene, by: Grouping) -> Result<(Vec<u32>, Vec<String>), Erro
     Ok((surface, names))
 }
 
-/// How many surfaces `scene` has under `by` (what [`view_factors`] would return rows
-/// for), without computing any: for callers that must bound a dense copy first.
-pub fn surface_count(scene: &Scene, by: Grouping) -> Result<usize, Error> {
-    Ok(surfaces(scene, by)?.1.len())
-}
-
 /// Sums of `A_i F_ij` into surface rows, taken row by row in patch order (so the sums,
 /// and their bits, do not depend on the thread count).
 struct Gather<'a> {

@@ -1455,3 +1455,6 @@ fn a_scene_that_emits_nothing_is_warned_of() {
     let err = String::from_utf8_lossy(&lit.stderr);
     assert!(lit.status.success() && !err.contains("emits"), "{err}");
 }
+
+#[cfg(feature = "mpi")]
+mod mpi;

@@ -1,0 +1,173 @@
+//! `coherad` under `mpirun` (the `mpi` feature: `cargo test -p coherad --features mpi`;
+//! needs Open MPI's `mpirun` on the PATH, which `.ci/run` installs): rows shared among
+//! ranks are one process's to the bit, balanced by work units, and a rank that fails
+//! or dies ends the run with an error and no output.
+
+use super::{bench_scene, coherad, temporaries};
+use std::path::Path;
+use std::process::{Command, Output};
+
+/// `mpirun -n ranks coherad args...` (ranks may exceed the cores: oversubscribed).
+fn mpirun(ranks: usize, args: &[&str]) -> Output {
+    Command::new("mpirun")
+        .args(["--oversubscribe", "-n", &ranks.to_string()])
+        .arg(env!("CARGO_BIN_EXE_coherad"))
+        .args(args)
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .output()
+        .expect("mpirun runs (install Open MPI)")
+}
+
+fn formfactors_args<'a>(
+    scene: &'a str,
+    res: &'a str,
+    method: &'a str,
+    out: &'a str,
+) -> Vec<&'a str> {
+    vec![
+        "formfactors",
+        scene,
+        "--resolution",
+        res,
+        "--method",
+        method,
+        "--out",
+        out,
+    ]
+}
+
+#[test]
+fn ranks_give_one_process_rows_to_the_bit_balanced_by_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    for (scene, res, method, ranks) in [
+        ("loft.json", "12x48", "exact", &[2, 3][..]),
+        ("loft.json", "12x48", "estimated", &[2, 3, 4][..]),
+        ("blob_room.json", "6x24", "exact", &[2, 3][..]),
+        ("cornell.json", "12x48", "estimated", &[3][..]),
+    ] {
+        let path = bench_scene(scene);
+        let path = path.to_str().unwrap();
+        let alone = out("alone.json");
+        let one = coherad(&formfactors_args(path, res, method, &alone));
+        assert!(
+            one.status.success(),
+            "{}",
+            String::from_utf8_lossy(&one.stderr)
+        );
+        let want = std::fs::read(&alone).unwrap();
+        for &n in ranks {
+            let shared = out(&format!("ranks{n}.json"));
+            let run = mpirun(n, &formfactors_args(path, res, method, &shared));
+            let err = String::from_utf8_lossy(&run.stderr);
+            assert!(run.status.success(), "{scene} {method} -n {n}: {err}");
+            assert!(
+                std::fs::read(&shared).unwrap() == want,
+                "{scene} {method} -n {n}: rows differ"
+            );
+            // The balance note: the largest share's work units over the mean.
+            let ratio: f64 = err
+                .split("the largest ")
+                .nth(1)
+                .and_then(|t| t.split(' ').next())
+                .and_then(|t| t.parse().ok())
+                .unwrap_or_else(|| panic!("no balance note: {err}"));
+            if scene == "loft.json" {
+                assert!(ratio <= 1.1, "{scene} {method} -n {n}: {ratio}");
+            }
+            std::fs::remove_file(&shared).unwrap();
+        }
+    }
+}
+
+#[test]
+fn a_rank_that_fails_or_dies_ends_the_run_with_no_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rows.json");
+    let o = out.to_str().unwrap();
+    let loft = bench_scene("loft.json");
+    let l = loft.to_str().unwrap();
+    // Rank 1 cannot read its scene (two programs of one job: mpirun's `:`).
+    let run = two_programs(
+        &formfactors_args(l, "12x48", "exact", o),
+        &formfactors_args("/no/such/scene.json", "12x48", "exact", o),
+    );
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && err.contains("rank 1: cannot read /no/such/scene.json"),
+        "{err}"
+    );
+    assert!(!out.exists() && temporaries(dir.path()).is_empty());
+    // Ranks started on different runs are refused.
+    let cube = bench_scene("cube.json");
+    let c = cube.to_str().unwrap();
+    let run = two_programs(
+        &formfactors_args(c, "12x48", "exact", o),
+        &formfactors_args(c, "6x24", "exact", o),
+    );
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && err.contains("rank 1 made rows of another run"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    // Rank 1 killed (SIGKILL) while computing: the launcher ends the job.
+    let mut job = Command::new("mpirun")
+        .args(["--oversubscribe", "-n", "2", env!("CARGO_BIN_EXE_coherad")])
+        .args(formfactors_args(l, "60x240", "exact", o))
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let victim = (0..200)
+        .find_map(|_| {
+            std::thread::sleep(std::time::Duration::from_millis(25));
+            rank_process(1, o)
+        })
+        .expect("rank 1 started");
+    Command::new("kill")
+        .args(["-9", &victim.to_string()])
+        .status()
+        .unwrap();
+    assert!(!job.wait().unwrap().success());
+    assert!(!out.exists(), "a partial output");
+    // (The killed rank's and rank 0's temporaries, if any, are cleared by the next write.)
+    let _ = temporaries(dir.path());
+    // Commands not shared yet are refused by name.
+    let run = mpirun(2, &["solve", l, "--out", o]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && err.contains("only `coherad formfactors` is shared"),
+        "{err}"
+    );
+}
+
+/// One job of two programs (mpirun's `:`): rank 0 runs coherad with `first`, rank 1
+/// with `second`.
+fn two_programs(first: &[&str], second: &[&str]) -> Output {
+    Command::new("mpirun")
+        .args(["--oversubscribe", "-n", "1", env!("CARGO_BIN_EXE_coherad")])
+        .args(first)
+        .args([":", "-n", "1", env!("CARGO_BIN_EXE_coherad")])
+        .args(second)
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .output()
+        .expect("mpirun runs (install Open MPI)")
+}
+
+/// The pid of the coherad process of rank `rank` writing `out`, if it is running.
+fn rank_process(rank: usize, out: &str) -> Option<u32> {
+    std::fs::read_dir("/proc").ok()?.flatten().find_map(|e| {
+        let pid: u32 = e.file_name().to_str()?.parse().ok()?;
+        let dir = Path::new("/proc").join(pid.to_string());
+        let cmd = std::fs::read(dir.join("cmdline")).ok()?;
+        let env = std::fs::read(dir.join("environ")).ok()?;
+        let has = |hay: &[u8], needle: &[u8]| hay.windows(needle.len()).any(|w| w == needle);
+        let rank_var = format!("OMPI_COMM_WORLD_RANK={rank}\0");
+        (has(&cmd, b"formfactors") && has(&cmd, out.as_bytes()) && has(&env, rank_var.as_bytes()))
+            .then_some(pid)
+    })
+}

@@ -1,0 +1,275 @@
+//! Sharing a run's rows among processes (MPI ranks, or any other): each one's part of
+//! a patch list, balanced by expected cost, and rows as bytes to send and gather.
+//! Nothing here knows MPI: the binary's `mpi` feature does the sending.
+//!
+//! Every patch's row is the same whichever process makes it (rows are independent,
+//! and an estimated row depends only on its own polygon's patches, which a part never
+//! splits), so rows gathered in part order are the single process's, to the bit.
+
+use crate::{Error, RowMethod, Rows};
+use rad_core::PatchId;
+use rad_estimator::{EstimateStats, Mode};
+use rad_geometry::Scene;
+use rad_hemisphere::Row;
+use std::ops::Range;
+
+/// What an estimate costs, in exact hemispheres (measured on the loft at 180 × 720 by
+/// `cargo bench -p rad-estimator`, centres by the scan: faithful 0.37, improved 0.63).
+pub const ESTIMATE_UNITS: [(Mode, f64); 2] = [(Mode::Faithful, 0.37), (Mode::Improved, 0.63)];
+
+/// The expected cost of each item of `patches` (a patch for exact rows; for estimated
+/// rows a polygon's patches among `patches`, which are never split) in work units (an
+/// exact hemisphere is 1): (the items as ranges of `patches`, their units).
+///
+/// An estimated polygon's units are its window centres (one a 3 × 3 block of its grid,
+/// counted as ⌈nu / 3⌉ ⌈nv / 3⌉, at most its patch count) plus its other patches at
+/// [`ESTIMATE_UNITS`].
+pub fn work_items(
+    scene: &Scene,
+    method: RowMethod,
+    patches: &[PatchId],
+) -> (Vec<Range<usize>>, Vec<f64>) {
+    let Some(mode) = method.mode() else {
+        return (
+            (0..patches.len()).map(|k| k..k + 1).collect(),
+            vec![1.0; patches.len()],
+        );
+    };
+    let estimate = ESTIMATE_UNITS
+        .iter()
+        .find(|(m, _)| *m == mode)
+        .map_or(1.0, |e| e.1);
+    let (mut items, mut units) = (Vec::new(), Vec::new());
+    let mut k = 0;
+    while k < patches.len() {
+        let polygon = scene.patches()[patches[k] as usize].polygon;
+        let start = k;
+        while k < patches.len() && scene.patches()[patches[k] as usize].polygon == polygon {
+            k += 1;
+        }
+        let n = (k - start) as f64;
+        let (nu, nv) = scene.polygons()[polygon as usize].grid();
+        let centres = ((nu.div_ceil(3) * nv.div_ceil(3)) as f64).min(n);
+        items.push(start..k);
+        units.push(centres + (n - centres) * estimate);
+    }
+    (items, units)
+}
+
+/// One process's share of a run: its patches (in the order of the list shared) and
+/// their work units.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Share {
+    pub patches: Vec<PatchId>,
+    pub units: f64,
+}
+
+/// `patches` shared among `parts` processes by expected cost, not by count: whole
+/// items ([`work_items`]) go, largest first (ties in list order), to the share with
+/// the fewest units so far (ties to the lower share); each share keeps its patches in
+/// list order. Deterministic: every process computes the same shares.
+pub fn shares(scene: &Scene, method: RowMethod, patches: &[PatchId], parts: usize) -> Vec<Share> {
+    let parts = parts.max(1);
+    let (items, units) = work_items(scene, method, patches);
+    let mut order: Vec<usize> = (0..items.len()).collect();
+    order.sort_by(|&a, &b| units[b].total_cmp(&units[a]).then(a.cmp(&b)));
+    let mut load = vec![0.0f64; parts];
+    let mut owner = vec![0usize; items.len()];
+    for k in order {
+        let r = (0..parts)
+            .min_by(|&a, &b| load[a].total_cmp(&load[b]).then(a.cmp(&b)))
+            .unwrap();
+        load[r] += units[k];
+        owner[k] = r;
+    }
+    let mut out: Vec<Share> = load
+        .iter()
+        .map(|&units| Share {
+            patches: Vec::new(),
+            units,
+        })
+        .collect();
+    for (k, item) in items.iter().enumerate() {
+        out[owner[k]]
+            .patches
+            .extend_from_slice(&patches[item.clone()]);
+    }
+    out
+}
+
+/// A fingerprint of a run for processes to compare before their rows are joined: FNV-1a
+/// of the scene's fingerprint and `what` (its resolution, method and patch list, as the
+/// caller writes them).
+pub fn run_fingerprint(scene_hash: u64, what: &str) -> u64 {
+    let h = crate::scene_file::fnv1a(crate::scene_file::FNV_OFFSET, &scene_hash.to_le_bytes());
+    crate::scene_file::fnv1a(h, what.as_bytes())
+}
+
+const MAGIC: &[u8; 4] = b"CHRW";
+const NONE: u32 = u32::MAX;
+
+/// `rows` as bytes (little-endian: magic, row count, the counts of
+/// [`EstimateStats`], then each row: patch, source or u32::MAX, back, escaped, entry
+/// count, entries as (u32, f64)), for [`decode_rows`] in another process.
+pub fn encode_rows(rows: &Rows) -> Vec<u8> {
+    let n: usize = rows.rows.iter().map(|r| 28 + 12 * r.entries.len()).sum();
+    let mut b = Vec::with_capacity(80 + n);
+    b.extend_from_slice(MAGIC);
+    b.extend_from_slice(&(rows.rows.len() as u64).to_le_bytes());
+    let s = &rows.stats;
+    for c in [s.exact, s.estimated, s.fallback_exact] {
+        b.extend_from_slice(&(c as u64).to_le_bytes());
+    }
+    for c in [s.real_rays, s.holes, s.polygon_tests] {
+        b.extend_from_slice(&c.to_le_bytes());
+    }
+    for t in [s.exact_seconds, s.estimate_seconds] {
+        b.extend_from_slice(&t.to_le_bytes());
+    }
+    for (r, src) in rows.rows.iter().zip(&rows.sources) {
+        b.extend_from_slice(&r.patch.to_le_bytes());
+        b.extend_from_slice(&src.unwrap_or(NONE).to_le_bytes());
+        b.extend_from_slice(&r.back.to_le_bytes());
+        b.extend_from_slice(&r.escaped.to_le_bytes());
+        b.extend_from_slice(&(r.entries.len() as u32).to_le_bytes());
+        for &(j, f) in &r.entries {
+            b.extend_from_slice(&j.to_le_bytes());
+            b.extend_from_slice(&f.to_le_bytes());
+        }
+    }
+    b
+}
+
+/// Reads [`encode_rows`]' bytes back as rows of `method`; truncated or inconsistent
+/// bytes are an error, never a panic.
+pub fn decode_rows(bytes: &[u8], method: RowMethod) -> Result<Rows, Error> {
+    let bad = |reason: &str| Error::Parse {
+        what: "rows from another process",
+        input: format!("{} bytes", bytes.len()),
+        reason: reason.to_string(),
+    };
+    let mut r = Reader { bytes, at: 0 };
+    if r.take(4).ok_or_else(|| bad("truncated"))? != MAGIC {
+        return Err(bad("not coherad rows"));
+    }
+    let mut head = [0u64; 9];
+    for x in &mut head {
+        *x = r.u64().ok_or_else(|| bad("truncated"))?;
+    }
+    let count = head[0];
+    let stats = EstimateStats {
+        exact: head[1] as usize,
+        estimated: head[2] as usize,
+        fallback_exact: head[3] as usize,
+        real_rays: head[4],
+        holes: head[5],
+        polygon_tests: head[6],
+        exact_seconds: f64::from_bits(head[7]),
+        estimate_seconds: f64::from_bits(head[8]),
+    };
+    // Each row takes at least 28 bytes: a count the bytes cannot hold is refused.
+    if count > (bytes.len() / 28) as u64 {
+        return Err(bad("a row count larger than the bytes hold"));
+    }
+    let (mut rows, mut sources) = (Vec::with_capacity(count as usize), Vec::new());
+    for _ in 0..count {
+        let row = r.row().ok_or_else(|| bad("truncated"))?;
+        rows.push(row.0);
+        sources.push(row.1);
+    }
+    if r.at != bytes.len() {
+        return Err(bad("bytes left over after the last row"));
+    }
+    Ok(Rows {
+        method,
+        rows,
+        sources,
+        stats,
+    })
+}
+
+/// Little-endian reads that return `None` past the end.
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
+        let s = self.bytes.get(self.at..self.at.checked_add(n)?)?;
+        self.at += n;
+        Some(s)
+    }
+    fn u32(&mut self) -> Option<u32> {
+        Some(u32::from_le_bytes(self.take(4)?.try_into().ok()?))
+    }
+    fn u64(&mut self) -> Option<u64> {
+        Some(u64::from_le_bytes(self.take(8)?.try_into().ok()?))
+    }
+    fn f64(&mut self) -> Option<f64> {
+        self.u64().map(f64::from_bits)
+    }
+    /// One row of [`encode_rows`] and its source.
+    fn row(&mut self) -> Option<(Row, Option<PatchId>)> {
+        let patch = self.u32()?;
+        let source = self.u32()?;
+        let back = self.f64()?;
+        let escaped = self.f64()?;
+        let n = self.u32()? as usize;
+        let body = self.take(n.checked_mul(12)?)?;
+        let entries = body
+            .chunks_exact(12)
+            .map(|e| {
+                let j = u32::from_le_bytes(e[..4].try_into().unwrap());
+                (j, f64::from_le_bytes(e[4..].try_into().unwrap()))
+            })
+            .collect();
+        let row = Row {
+            patch,
+            entries,
+            back,
+            escaped,
+        };
+        Some((row, (source != NONE).then_some(source)))
+    }
+}
+
+/// Joins shares' rows into one run's over `patches` (the list shared): each row in its
+/// patch's place in the list, the counts added. An error if the rows are not one row
+/// for each patch of the list.
+pub fn join_rows(method: RowMethod, patches: &[PatchId], parts: Vec<Rows>) -> Result<Rows, Error> {
+    let bad = |reason: String| Error::Parse {
+        what: "rows gathered from processes",
+        input: format!("{} patches", patches.len()),
+        reason,
+    };
+    let top = patches.iter().map(|&p| p as usize + 1).max().unwrap_or(0);
+    let mut place = vec![usize::MAX; top];
+    for (k, &p) in patches.iter().enumerate() {
+        place[p as usize] = k;
+    }
+    let mut rows: Vec<Option<(Row, Option<PatchId>)>> = vec![None; patches.len()];
+    let mut stats = EstimateStats::default();
+    for part in parts {
+        stats.add(&part.stats);
+        for (row, src) in part.rows.into_iter().zip(part.sources) {
+            let k = place.get(row.patch as usize).copied().unwrap_or(usize::MAX);
+            if k == usize::MAX || rows[k].is_some() {
+                return Err(bad(format!("patch {}: not asked for, or twice", row.patch)));
+            }
+            rows[k] = Some((row, src));
+        }
+    }
+    let mut all = Rows {
+        method,
+        rows: Vec::with_capacity(patches.len()),
+        sources: Vec::with_capacity(patches.len()),
+        stats,
+    };
+    for (k, r) in rows.into_iter().enumerate() {
+        let (row, src) = r.ok_or_else(|| bad(format!("no row for patch {}", patches[k])))?;
+        all.rows.push(row);
+        all.sources.push(src);
+    }
+    Ok(all)
+}
