@@ -10,8 +10,9 @@ use rad_pipeline::output::{
 use rad_pipeline::share;
 use rad_pipeline::solve::{read_solution, solve_scene, SolveOptions};
 use rad_pipeline::viewfactors::{
-    check_format, count_surfaces, stream_patch_matrix, view_factors, write_view_factors, Grouping,
-    MatrixFormat, ViewFactorOptions, ViewFactorRun,
+    area_rows, check_format, count_surfaces, row_patches, stream_patch_matrix, view_factors,
+    view_factors_of_rows, write_view_factors, Grouping, MatrixFormat, ViewFactorOptions,
+    ViewFactorRun,
 };
 use rad_pipeline::{
     parse_patch_list, parse_resolution, Camera, CasterKind, Enclosure, EstimateStats, Hemisphere,
@@ -37,7 +38,7 @@ const EXIT_ERROR: u8 = 1;
 const EXIT_USAGE: u8 = 2;
 const EXIT_NOT_CONVERGED: u8 = 3;
 
-/// A note or summary on standard error, unless `--quiet`.
+// The processes sharing a run: MPI's ranks with the `mpi` feature, else one.
 #[cfg(feature = "mpi")]
 #[path = "ranks_mpi.rs"]
 mod ranks;
@@ -46,6 +47,7 @@ mod ranks;
 mod ranks;
 use ranks::Ranks;
 
+/// A note or summary on standard error, unless `--quiet`.
 macro_rules! say {
     ($($arg:tt)*) => {
         if !QUIET.load(Ordering::Relaxed) {
@@ -385,7 +387,19 @@ fn main() -> ExitCode {
         // Rank 0 speaks for the run; the others' errors reach it in the gather.
         QUIET.store(true, Ordering::Relaxed);
     }
-    let result = run(&cli, &ranks);
+    // A panic is an error like any other here, so that under MPI it is gathered too
+    // (a rank that unwound without gathering would leave rank 0 waiting).
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(&cli, &ranks)))
+        .unwrap_or_else(|p| {
+            let what = p
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            Err(format!(
+                "internal error (a panic: {what}); please report it"
+            ))
+        });
     // Every rank gathers once: one that ended before it sends its error (or nothing).
     let result = if ranks.gathered() {
         result
@@ -482,9 +496,13 @@ fn parse_reflectance(text: &str) -> Result<Rgb, String> {
 
 fn run(cli: &Cli, ranks: &Ranks) -> Result<(), String> {
     let load = |path: &Path| load_scene_file(cli, path);
-    if ranks.size() > 1 && !matches!(cli.command, Command::Formfactors { .. }) {
+    let shared = matches!(
+        cli.command,
+        Command::Formfactors { .. } | Command::Viewfactors { .. }
+    );
+    if ranks.size() > 1 && !shared {
         return Err(format!(
-            "under MPI ({} ranks) only `coherad formfactors` is shared so far: run this command as one process",
+            "under MPI ({} ranks) only `coherad formfactors` and `viewfactors` are shared so far: run this command as one process",
             ranks.size()
         ));
     }
@@ -537,7 +555,7 @@ fn run(cli: &Cli, ranks: &Ranks) -> Result<(), String> {
                 );
             }
             let format = matrix_format(*format, out.as_deref());
-            viewfactors(&scene, resolution, &opts, format, out.as_deref())
+            viewfactors(&scene, resolution, &opts, format, out.as_deref(), ranks)
         }
         Command::Solve {
             scene,
@@ -647,7 +665,12 @@ fn formfactors(
     let hemi = hemisphere(resolution)?;
     let scene_ = &scene.scene;
     let ids = parse_patch_list(patches, scene_.patches().len()).map_err(|e| e.to_string())?;
-    let Some(made) = shared_rows(scene, &hemi, method, &ids, ranks)? else {
+    let bar = row_bar(&hemi, method, ids.len());
+    let what = format!("formfactors {}x{} {method}", hemi.n_theta(), hemi.n_phi());
+    let make = |patches: &[u32], progress: &(dyn Fn(usize) + Sync)| {
+        rad_pipeline::rows(scene_, &hemi, method, patches, progress).map_err(|e| e.to_string())
+    };
+    let Some(made) = shared_rows(scene, method, &ids, ranks, &what, &bar, &make)? else {
         return Ok(()); // (a rank but the first: its rows went to rank 0)
     };
     report_estimates(made.method, &made.stats);
@@ -685,46 +708,53 @@ fn formfactors(
     })
 }
 
-/// The rows of `ids` by `method`, made by this process alone or shared among MPI
-/// ranks ([`rad_pipeline::share`]: each rank its share, balanced by work units, the
-/// rows gathered on rank 0 in the list's order, the same to the bit); `None` on the
-/// ranks but the first. Each rank's part begins with a fingerprint of the run (scene,
-/// resolution, method, patch list), so that ranks started on different runs are an
-/// error, not a mixed output.
+/// How a share's rows are made: `make(patches, progress)`.
+type MakeRows<'a> =
+    dyn Fn(&[u32], &(dyn Fn(usize) + Sync)) -> Result<rad_pipeline::Rows, String> + Sync + 'a;
+
+/// The rows of `ids` (`make` makes any of them), made by this process alone or shared
+/// among MPI ranks ([`rad_pipeline::share`]: each rank its share, balanced by the work
+/// units of `method`, the rows gathered on rank 0 in the list's order, the same to the
+/// bit); `None` on the ranks but the first. `bar` shows this process's rows. Each
+/// rank's part begins with a fingerprint of the run (the scene and `what`: the
+/// command's resolution, method, options, patch list), so that ranks started on
+/// different runs are an error, not a mixed output.
 fn shared_rows(
     scene: &SceneFile,
-    hemi: &Hemisphere,
     method: RowMethod,
     ids: &[u32],
     ranks: &Ranks,
+    what: &str,
+    bar: &ProgressBar,
+    make: &MakeRows<'_>,
 ) -> Result<Option<rad_pipeline::Rows>, String> {
-    let scene_ = &scene.scene;
+    let progress = |n: usize| bar.set_position(n as u64);
     if ranks.size() == 1 {
-        let bar = row_bar(hemi, method, ids.len());
-        let made = rad_pipeline::rows(scene_, hemi, method, ids, &|n| bar.set_position(n as u64))
-            .map_err(|e| e.to_string())?;
+        let made = make(ids, &progress)?;
         bar.finish_and_clear();
         return Ok(Some(made));
     }
-    let shares = share::shares(scene_, method, ids, ranks.size());
+    let shares = share::shares(&scene.scene, method, ids, ranks.size());
     let mine = &shares[ranks.rank()];
-    let what = format!("{}x{} {method} {ids:?}", hemi.n_theta(), hemi.n_phi());
-    let fingerprint = share::run_fingerprint(scene.hash, &what).to_le_bytes();
-    let bar = row_bar(hemi, method, mine.patches.len());
-    let part = rad_pipeline::rows(scene_, hemi, method, &mine.patches, &|n| {
-        bar.set_position(n as u64)
-    })
-    .map(|r| [&fingerprint[..], &share::encode_rows(&r)].concat())
-    .map_err(|e| e.to_string());
+    let mut key: Vec<u8> = what.as_bytes().to_vec();
+    key.extend(ids.iter().flat_map(|p| p.to_le_bytes()));
+    let fingerprint = share::run_fingerprint(scene.hash, &key).to_le_bytes();
+    bar.set_length(mine.patches.len() as u64);
+    let part = make(&mine.patches, &progress).map(|r| {
+        let mut bytes = fingerprint.to_vec();
+        share::encode_rows_into(&r, &mut bytes);
+        bytes
+    });
     bar.finish_and_clear();
     let Some(parts) = ranks.gather(part)? else {
         return Ok(None);
     };
     let mut made = Vec::with_capacity(parts.len());
-    for (r, p) in parts.iter().enumerate() {
+    // (Each part's bytes dropped as soon as it is read.)
+    for (r, p) in parts.into_iter().enumerate() {
         if p.get(..8) != Some(&fingerprint[..]) {
             return Err(format!(
-                "rank {r} made rows of another run (another scene file, resolution, method or patch list): start every rank with the same command"
+                "rank {r} made rows of another run (another scene file, resolution, method, options or patch list): start every rank with the same command"
             ));
         }
         made.push(share::decode_rows(&p[8..], method).map_err(|e| format!("rank {r}: {e}"))?);
@@ -796,6 +826,7 @@ fn viewfactors(
     opts: &ViewFactorOptions,
     format: MatrixFormat,
     out: Option<&Path>,
+    ranks: &Ranks,
 ) -> Result<(), String> {
     let hemi = hemisphere(resolution)?;
     let n_surfaces = count_surfaces(&scene.scene, opts.by).map_err(|e| e.to_string())?;
@@ -842,6 +873,34 @@ fn viewfactors(
         resolution: (hemi.n_theta() as u32, hemi.n_phi() as u32),
     };
     let progress = |n: usize| bar.set_position(n as u64);
+    if ranks.size() > 1 {
+        // Shared among ranks: each its patches' rows, gathered on rank 0 (whole: the
+        // streaming path below is one process's).
+        let scene_ = &scene.scene;
+        let ids = row_patches(scene_);
+        // (Every patch costs origins² hemispheres alike: exact rows' units.)
+        let method = RowMethod::Exact {
+            caster: opts.caster,
+        };
+        let what = format!("viewfactors {}x{} {opts:?}", hemi.n_theta(), hemi.n_phi());
+        let make = |patches: &[u32], progress: &(dyn Fn(usize) + Sync)| {
+            let rows =
+                area_rows(scene_, &hemi, opts, patches, progress).map_err(|e| e.to_string())?;
+            let sources = vec![None; rows.len()];
+            let stats = EstimateStats::default();
+            Ok(rad_pipeline::Rows {
+                method,
+                rows,
+                sources,
+                stats,
+            })
+        };
+        let Some(made) = shared_rows(scene, method, &ids, ranks, &what, &bar, &make)? else {
+            return Ok(());
+        };
+        let vf = view_factors_of_rows(scene_, opts, &made.rows).map_err(|e| e.to_string())?;
+        return report_and_write_view_factors(&vf, &run, format, out);
+    }
     if let (MatrixFormat::Bin, Grouping::Patch, Enclosure::Raw, false, Some(path)) =
         (format, opts.by, opts.enclosure, opts.script_f, out)
     {
@@ -864,6 +923,17 @@ fn viewfactors(
     }
     let vf = view_factors(&scene.scene, &hemi, opts, &progress).map_err(|e| e.to_string())?;
     bar.finish_and_clear();
+    report_and_write_view_factors(&vf, &run, format, out)
+}
+
+/// Notes what view factors lose (rays leaving the scene, backs), reports the enclosure
+/// rule's changes, and writes them.
+fn report_and_write_view_factors(
+    vf: &rad_pipeline::viewfactors::ViewFactors,
+    run: &ViewFactorRun,
+    format: MatrixFormat,
+    out: Option<&Path>,
+) -> Result<(), String> {
     let leaking = (0..vf.names.len()).filter(|&i| vf.escaped[i] > 0.0).count();
     if leaking > 0 {
         say!(
@@ -896,7 +966,7 @@ fn viewfactors(
         r.raw.reciprocity.median,
         r.max_change
     );
-    emit(out, |w| write_view_factors(w, &vf, &run, format))
+    emit(out, |w| write_view_factors(w, vf, run, format))
 }
 
 /// `coherad render`: the solution's image from the scene's camera or the flags'.

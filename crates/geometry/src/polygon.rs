@@ -602,6 +602,12 @@ pub(crate) fn texture_axes(
 /// its patch grid; `None` when its vertices make no valid polygon (its own checks then
 /// name the problem).
 pub(crate) fn texture_side_lengths(vertices: &[Vec3]) -> Option<(f64, f64)> {
+    texture_sides(vertices).map(|(e_u, e_v)| (e_u.length(), e_v.length()))
+}
+
+/// The sides (e_u, e_v) of a polygon's (u, v) frame ([`texture_axes`]); `None` as for
+/// [`texture_side_lengths`].
+pub(crate) fn texture_sides(vertices: &[Vec3]) -> Option<(DVec3, DVec3)> {
     let pts: Vec<DVec3> = vertices.iter().map(|p| p.as_dvec3()).collect();
     if pts.len() < 3 || !pts.iter().all(|p| p.is_finite()) {
         return None;
@@ -618,7 +624,7 @@ pub(crate) fn texture_side_lengths(vertices: &[Vec3]) -> Option<(f64, f64)> {
         return None;
     }
     let (_, e_u, e_v, _) = texture_axes(&pts, newell.normalize(), diameter)?;
-    Some((e_u.length(), e_v.length()))
+    Some((e_u, e_v))
 }
 
 /// Checks `vertices` and the grid size: (the vertices in f64, the unit normal, the

@@ -132,6 +132,8 @@ impl Scene {
         let mut obstructions = Vec::with_capacity(described + backs.len());
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        // (The file's index of each polygon, a back's its front's: what errors name.)
+        let mut file_index = Vec::with_capacity(described + backs.len());
         let all = desc.polygons.into_iter().enumerate().chain(backs);
         for (idx, pd) in all {
             let fail = |name: &str, problem| Error::Polygon {
@@ -183,6 +185,7 @@ impl Scene {
                 hi = hi.max(*v);
             }
             let id = polygons.len() as u32;
+            file_index.push(idx);
             patches.extend(built.patches.into_iter().map(|mut p| {
                 p.polygon = id;
                 p
@@ -204,9 +207,9 @@ impl Scene {
         let extent = (hi - lo).length() as f64;
         if let Some((a, b, area)) = crate::overlap::find_overlap(&polygons, extent) {
             return Err(Error::Overlap {
-                a,
+                a: file_index[a],
                 a_name: polygons[a].name().to_string(),
-                b,
+                b: file_index[b],
                 b_name: polygons[b].name().to_string(),
                 area,
             });
@@ -324,8 +327,8 @@ fn check_materials(materials: &[Material]) -> Result<(), Error> {
 
 /// The back side of a two-sided polygon: its vertices in reverse order (the first
 /// kept), named `NAME:back`, in group `GROUP:back`, its patch grid turned to match the
-/// front's cells where its texture's sides are the front's swapped (as for a triangle
-/// or a parallelogram, whose edge frame then swaps u and v).
+/// front's cells where its texture's u runs along the front's v (as for a triangle or
+/// a parallelogram, whose edge frame then swaps u and v).
 fn back_side(pd: &PolygonDesc) -> PolygonDesc {
     let mut vertices = pd.vertices.clone();
     if vertices.len() > 1 {
@@ -333,10 +336,14 @@ fn back_side(pd: &PolygonDesc) -> PolygonDesc {
     }
     let grid = match pd.grid {
         PatchGrid::Cells { nu, nv } => {
-            let sides = |v: &[Vec3]| crate::polygon::texture_side_lengths(v);
+            // Swapped where the back's u runs along the front's v (by direction, not
+            // length: a square's sides are equal).
+            let sides = |v: &[Vec3]| crate::polygon::texture_sides(v);
             let swapped = match (sides(&pd.vertices), sides(&vertices)) {
-                (Some((lu, lv)), Some((bu, bv))) => {
-                    (lu - bv).abs() + (lv - bu).abs() < (lu - bu).abs() + (lv - bv).abs()
+                (Some((fu, _)), Some((bu, bv))) => {
+                    let along =
+                        |a: glam::DVec3, b: glam::DVec3| a.normalize().dot(b.normalize()).abs();
+                    along(fu, bv) > along(fu, bu)
                 }
                 _ => false,
             };

@@ -98,11 +98,11 @@ pub fn shares(scene: &Scene, method: RowMethod, patches: &[PatchId], parts: usiz
 }
 
 /// A fingerprint of a run for processes to compare before their rows are joined: FNV-1a
-/// of the scene's fingerprint and `what` (its resolution, method and patch list, as the
-/// caller writes them).
-pub fn run_fingerprint(scene_hash: u64, what: &str) -> u64 {
+/// of the scene's fingerprint and `what` (its resolution, method, options and patch
+/// list, as the caller writes them).
+pub fn run_fingerprint(scene_hash: u64, what: &[u8]) -> u64 {
     let h = crate::scene_file::fnv1a(crate::scene_file::FNV_OFFSET, &scene_hash.to_le_bytes());
-    crate::scene_file::fnv1a(h, what.as_bytes())
+    crate::scene_file::fnv1a(h, what)
 }
 
 const MAGIC: &[u8; 4] = b"CHRW";
@@ -112,8 +112,15 @@ const NONE: u32 = u32::MAX;
 /// [`EstimateStats`], then each row: patch, source or u32::MAX, back, escaped, entry
 /// count, entries as (u32, f64)), for [`decode_rows`] in another process.
 pub fn encode_rows(rows: &Rows) -> Vec<u8> {
+    let mut b = Vec::new();
+    encode_rows_into(rows, &mut b);
+    b
+}
+
+/// [`encode_rows`] appended to `b` (after a caller's header, say).
+pub fn encode_rows_into(rows: &Rows, b: &mut Vec<u8>) {
     let n: usize = rows.rows.iter().map(|r| 28 + 12 * r.entries.len()).sum();
-    let mut b = Vec::with_capacity(80 + n);
+    b.reserve(80 + n);
     b.extend_from_slice(MAGIC);
     b.extend_from_slice(&(rows.rows.len() as u64).to_le_bytes());
     let s = &rows.stats;
@@ -137,7 +144,6 @@ pub fn encode_rows(rows: &Rows) -> Vec<u8> {
             b.extend_from_slice(&f.to_le_bytes());
         }
     }
-    b
 }
 
 /// Reads [`encode_rows`]' bytes back as rows of `method`; truncated or inconsistent

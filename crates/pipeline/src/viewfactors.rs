@@ -396,6 +396,96 @@ pub fn view_factors(
     opts: &ViewFactorOptions,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<ViewFactors, Error> {
+    view_factors_with(scene, opts, &mut |sink| {
+        for_each_row(scene, hemi, opts, progress, sink)
+    })
+}
+
+/// The patches whose rows view factors take: every patch but obstructions', in order
+/// (what [`area_rows`] may be given in shares, and [`view_factors_of_rows`] wants
+/// rows of).
+pub fn row_patches(scene: &Scene) -> Vec<PatchId> {
+    (0..scene.patches().len() as PatchId)
+        .filter(|&p| !scene.is_obstruction(scene.patches()[p as usize].polygon as usize))
+        .collect()
+}
+
+/// The rows view factors take of `patches` (any of [`row_patches`], in any order: a
+/// process's share), averaged over `opts.origins`² origins through `opts.caster`, in
+/// parallel; each the very row [`view_factors`] makes of that patch.
+pub fn area_rows(
+    scene: &Scene,
+    hemi: &Hemisphere,
+    opts: &ViewFactorOptions,
+    patches: &[PatchId],
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Vec<Row>, Error> {
+    struct Job<'a> {
+        scene: &'a Scene,
+        hemi: &'a Hemisphere,
+        origins: u32,
+        patches: &'a [PatchId],
+        progress: &'a (dyn Fn(usize) + Sync),
+    }
+    impl CasterJob for Job<'_> {
+        type Out = Vec<Row>;
+        fn run<C: Caster>(self, caster: &C) -> Result<Vec<Row>, Error> {
+            let rows = compute_area_rows(
+                self.scene,
+                caster,
+                self.hemi,
+                self.patches,
+                self.origins,
+                self.progress,
+            )?;
+            check_rows(&rows)?;
+            Ok(rows)
+        }
+    }
+    let job = Job {
+        scene,
+        hemi,
+        origins: opts.origins,
+        patches,
+        progress,
+    };
+    rows_with_caster(scene, opts.caster, job)
+}
+
+/// [`view_factors`] of rows made elsewhere (by processes, [`area_rows`] of their
+/// shares): `rows` one for each of [`row_patches`], in that order; the same result,
+/// to the bit, as [`view_factors`] making them.
+pub fn view_factors_of_rows(
+    scene: &Scene,
+    opts: &ViewFactorOptions,
+    rows: &[Row],
+) -> Result<ViewFactors, Error> {
+    let want = row_patches(scene);
+    if rows.len() != want.len() || rows.iter().zip(&want).any(|(r, &p)| r.patch != p) {
+        return Err(Error::Parse {
+            what: "view-factor rows",
+            input: format!("{} rows", rows.len()),
+            reason: format!(
+                "not one row for each of the {} patches, in order",
+                want.len()
+            ),
+        });
+    }
+    view_factors_with(scene, opts, &mut |sink| {
+        rows.iter().try_for_each(&mut *sink)
+    })
+}
+
+/// Rows feed a sink, in patch order.
+type RowFeed<'a> =
+    dyn FnMut(&mut (dyn FnMut(&Row) -> Result<(), Error> + Send)) -> Result<(), Error> + 'a;
+
+/// [`view_factors`] with its rows from `feed`.
+fn view_factors_with(
+    scene: &Scene,
+    opts: &ViewFactorOptions,
+    feed: &mut RowFeed<'_>,
+) -> Result<ViewFactors, Error> {
     let (surface, names) = surfaces(scene, opts.by)?;
     let n = names.len();
     let mut area = vec![0.0; n];
@@ -449,7 +539,7 @@ pub fn view_factors(
         back: vec![0.0; n],
         obstructed: vec![0.0; n],
     };
-    for_each_row(scene, hemi, opts, progress, &mut |r| {
+    feed(&mut |r| {
         gather.take(r);
         Ok(())
     })?;

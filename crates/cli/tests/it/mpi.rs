@@ -82,6 +82,62 @@ fn ranks_give_one_process_rows_to_the_bit_balanced_by_work() {
 }
 
 #[test]
+fn ranks_give_one_process_view_factors_to_the_byte() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let loft = bench_scene("loft.json");
+    let cornell = bench_scene("cornell.json");
+    for (scene, flags) in [
+        (
+            &loft,
+            &[
+                "--by",
+                "polygon",
+                "--enclosure",
+                "closed",
+                "--format",
+                "json",
+            ][..],
+        ),
+        (
+            &loft,
+            &["--by", "polygon", "--origins", "1", "--format", "mtx"][..],
+        ),
+        // One process streams these rows to the file as made; ranks gather them whole.
+        (
+            &cornell,
+            &["--by", "patch", "--enclosure", "raw", "--format", "bin"][..],
+        ),
+    ] {
+        let s = scene.to_str().unwrap();
+        let mut args = vec!["viewfactors", s, "--resolution", "12x48"];
+        args.extend_from_slice(flags);
+        let alone = out("alone");
+        let mut one = args.clone();
+        one.extend(["--out", &alone]);
+        let run = coherad(&one);
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let want = std::fs::read(&alone).unwrap();
+        for n in [2, 3] {
+            let shared = out(&format!("ranks{n}"));
+            let mut many = args.clone();
+            many.extend(["--out", &shared]);
+            let run = mpirun(n, &many);
+            let err = String::from_utf8_lossy(&run.stderr);
+            assert!(run.status.success(), "{flags:?} -n {n}: {err}");
+            assert!(
+                std::fs::read(&shared).unwrap() == want,
+                "{flags:?} -n {n}: differs"
+            );
+        }
+    }
+}
+
+#[test]
 fn a_rank_that_fails_or_dies_ends_the_run_with_no_output() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("rows.json");
@@ -139,7 +195,8 @@ fn a_rank_that_fails_or_dies_ends_the_run_with_no_output() {
     let run = mpirun(2, &["solve", l, "--out", o]);
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(
-        !run.status.success() && err.contains("only `coherad formfactors` is shared"),
+        !run.status.success()
+            && err.contains("only `coherad formfactors` and `viewfactors` are shared"),
         "{err}"
     );
 }

@@ -278,24 +278,31 @@ fn two_sided_polygons_get_a_back_with_the_fronts_cells() {
       "polygons": [
         {"name": "fin", "material": "m", "patches": [3, 5], "group": "fins", "two_sided": true,
          "vertices": [[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0]]},
+        {"name": "tile", "material": "m", "patches": [2, 4], "two_sided": true,
+         "vertices": [[0, 0, 2], [1, 0, 2], [1, 1, 2], [0, 1, 2]]},
         {"name": "floor", "material": "m", "patches": [1, 1],
          "vertices": [[0, 0, -1], [2, 0, -1], [2, 1, -1], [0, 1, -1]]}
       ]}"#;
     let desc = rad_geometry::file::scene_desc_from_json(json, None).unwrap();
-    assert!(desc.polygons[0].two_sided && !desc.polygons[1].two_sided);
+    assert!(desc.polygons[0].two_sided && !desc.polygons[2].two_sided);
     let again = rad_geometry::file::scene_desc_to_json(&desc, None);
     assert!(again.contains("\"two_sided\": true"), "{again}");
-    assert_eq!(again.matches("two_sided").count(), 1);
+    assert_eq!(again.matches("two_sided").count(), 2);
     let scene = Scene::new(desc).unwrap();
     let names: Vec<&str> = scene.polygons().iter().map(|p| p.name()).collect();
-    assert_eq!(names, ["fin", "floor", "fin:back"]);
-    let (front, back) = (&scene.polygons()[0], &scene.polygons()[2]);
-    assert!(front.front_only() && back.front_only() && !scene.polygons()[1].front_only());
+    assert_eq!(names, ["fin", "tile", "floor", "fin:back", "tile:back"]);
+    let (front, back) = (&scene.polygons()[0], &scene.polygons()[3]);
+    assert!(front.front_only() && back.front_only() && !scene.polygons()[2].front_only());
     assert_eq!(front.normal(), -back.normal());
     assert_eq!((front.grid(), back.grid()), ((3, 5), (5, 3)));
-    assert_eq!(scene.group(2), Some("fins:back"));
-    // Patches polygon by polygon: the back's 15 last, at the front's centres.
-    assert_eq!(scene.patches().len(), 31);
+    // A square's too (its sides are equal: turned by direction).
+    assert_eq!(
+        (scene.polygons()[1].grid(), scene.polygons()[4].grid()),
+        ((2, 4), (4, 2))
+    );
+    assert_eq!(scene.group(3), Some("fins:back"));
+    // Patches polygon by polygon: the backs' last, at the fronts' centres.
+    assert_eq!(scene.patches().len(), 15 + 8 + 1 + 15 + 8);
     let centres = |poly: u32| {
         let mut c: Vec<[u32; 3]> = scene
             .patches()
@@ -306,9 +313,10 @@ fn two_sided_polygons_get_a_back_with_the_fronts_cells() {
         c.sort();
         c
     };
-    assert_eq!(centres(0), centres(2));
-    assert!(scene.patches()[16..].iter().all(|p| p.polygon == 2));
-    assert!(scene.patches()[16..]
+    assert_eq!(centres(0), centres(3));
+    assert_eq!(centres(1), centres(4));
+    assert!(scene.patches()[24..39].iter().all(|p| p.polygon == 3));
+    assert!(scene.patches()[24..39]
         .iter()
         .all(|p| (p.normal + front.normal()).length() < 1e-6));
 }

@@ -103,3 +103,47 @@ fn rows_bytes_that_are_cut_or_padded_are_refused() {
     huge[4..12].copy_from_slice(&u64::MAX.to_le_bytes());
     assert!(decode_rows(&huge, method).is_err());
 }
+
+#[test]
+fn view_factors_of_shared_rows_are_one_runs_to_the_bit() {
+    use rad_pipeline::viewfactors::{
+        area_rows, row_patches, view_factors, view_factors_of_rows, Grouping, ViewFactorOptions,
+    };
+    use rad_pipeline::Enclosure;
+    let scene = Scene::new(scenes::cornell_box(120.0)).unwrap();
+    let hemi = Hemisphere::new(HemisphereConfig::exact(12, 48)).unwrap();
+    for (by, enclosure) in [
+        (Grouping::Polygon, Enclosure::Reciprocal),
+        (Grouping::Patch, Enclosure::Raw),
+    ] {
+        let opts = ViewFactorOptions {
+            by,
+            enclosure,
+            ..ViewFactorOptions::for_scene(&scene)
+        };
+        let whole = view_factors(&scene, &hemi, &opts, &|_| {}).unwrap();
+        let ids = row_patches(&scene);
+        let method = RowMethod::Exact {
+            caster: opts.caster,
+        };
+        let parts: Vec<_> = shares(&scene, method, &ids, 3)
+            .iter()
+            .map(|s| {
+                let rows = area_rows(&scene, &hemi, &opts, &s.patches, &|_| {}).unwrap();
+                let n = rows.len();
+                rad_pipeline::Rows {
+                    method,
+                    rows,
+                    sources: vec![None; n],
+                    stats: Default::default(),
+                }
+            })
+            .collect();
+        let joined = join_rows(method, &ids, parts).unwrap();
+        let shared = view_factors_of_rows(&scene, &opts, &joined.rows).unwrap();
+        assert_eq!(shared.matrix.rows, whole.matrix.rows, "{by:?}");
+        assert_eq!(shared.back, whole.back);
+        // Rows not one a patch, in order, are refused.
+        assert!(view_factors_of_rows(&scene, &opts, &joined.rows[1..]).is_err());
+    }
+}
