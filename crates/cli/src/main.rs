@@ -28,6 +28,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// errors are).
 static QUIET: AtomicBool = AtomicBool::new(false);
 
+/// Set on MPI ranks but the first: rank 0 speaks for the run, so the others show no
+/// warnings either (each would repeat rank 0's).
+static SILENT: AtomicBool = AtomicBool::new(false);
+
 /// Set when a solve did not converge: its file is written, and the exit code is
 /// [`EXIT_NOT_CONVERGED`].
 static NOT_CONVERGED: AtomicBool = AtomicBool::new(false);
@@ -46,6 +50,15 @@ mod ranks;
 #[path = "ranks_one.rs"]
 mod ranks;
 use ranks::Ranks;
+
+/// A warning on standard error (even with `--quiet`; not on MPI ranks but the first).
+macro_rules! warn {
+    ($($arg:tt)*) => {
+        if !SILENT.load(Ordering::Relaxed) {
+            eprintln!($($arg)*);
+        }
+    };
+}
 
 /// A note or summary on standard error, unless `--quiet`.
 macro_rules! say {
@@ -386,6 +399,7 @@ fn main() -> ExitCode {
     if ranks.rank() > 0 {
         // Rank 0 speaks for the run; the others' errors reach it in the gather.
         QUIET.store(true, Ordering::Relaxed);
+        SILENT.store(true, Ordering::Relaxed);
     }
     // A panic is an error like any other here, so that under MPI it is gathered too
     // (a rank that unwound without gathering would leave rank 0 waiting).
@@ -461,7 +475,7 @@ fn load_scene_file(cli: &Cli, path: &Path) -> Result<SceneFile, String> {
         );
     }
     if t.dropped > 0 {
-        eprintln!(
+        warn!(
             "warning: {}: dropped {} degenerate faces or pieces (first: {})",
             path.display(),
             t.dropped,
@@ -681,7 +695,7 @@ fn formfactors(
         .map(|r| r.patch)
         .collect();
     if !leaked.is_empty() {
-        eprintln!(
+        warn!(
             "warning: {} row(s) lose form factor to rays that leave the scene (first: patch {}); the scene is not closed",
             leaked.len(),
             leaked[0]
@@ -690,7 +704,7 @@ fn formfactors(
     let backs: Vec<&rad_pipeline::Row> = made.rows.iter().filter(|r| r.back > 0.0).collect();
     if let Some(first) = backs.iter().max_by(|a, b| a.back.total_cmp(&b.back)) {
         let polygon = scene_.patches()[first.patch as usize].polygon as usize;
-        eprintln!(
+        warn!(
             "warning: {} row(s) see polygons from behind (their \"back\" form factor is > 0; most: patch {} of polygon {polygon} ({:?}), {:.3e} of its hemisphere)",
             backs.len(),
             first.patch,
@@ -946,7 +960,7 @@ fn report_and_write_view_factors(
         .map(|i| vf.names[i].as_str())
         .collect();
     if !backs.is_empty() {
-        eprintln!(
+        warn!(
             "warning: {} surfaces see polygons from behind (first: {:?}); those rays count as \"back\", in no factor",
             backs.len(),
             backs[0]
@@ -1146,7 +1160,7 @@ fn solve(
     let hemi = hemisphere(resolution)?;
     let sc = &scene.scene;
     if (0..sc.patches().len()).all(|p| sc.patch_material(p as u32).emission.0 == [0.0; 3]) {
-        eprintln!(
+        warn!(
             "warning: no polygon emits light (every material's emission is 0): every radiosity will be 0; give a material an \"emission\" (or use --materials)"
         );
     }
@@ -1204,7 +1218,7 @@ fn solve(
         );
     }
     if let Some(rec) = solved.reciprocity.filter(|r| !r.converged) {
-        eprintln!(
+        warn!(
             "warning: the reciprocal scaling stopped after {} products with rows off their sums by up to {:.1e}; energy is conserved only to that",
             rec.iterations, rec.max_row_sum_error
         );
@@ -1224,7 +1238,7 @@ fn solve(
     let text = serde_json::to_string_pretty(&file).map_err(|e| e.to_string())?;
     emit(Some(out), |w| w.write_all(text.as_bytes()))?;
     if !r.converged {
-        eprintln!(
+        warn!(
             "warning: the solve did not converge (residual {:.1e} after {} iterations); {} is written, the exit code is {EXIT_NOT_CONVERGED}",
             r.residual,
             r.iterations,
