@@ -912,7 +912,7 @@ fn viewfactors(
         let Some(made) = shared_rows(scene, method, &ids, ranks, &what, &bar, &make)? else {
             return Ok(());
         };
-        let vf = view_factors_of_rows(scene_, opts, &made.rows).map_err(|e| e.to_string())?;
+        let vf = view_factors_of_rows(scene_, opts, made.rows).map_err(|e| e.to_string())?;
         return report_and_write_view_factors(&vf, &run, format, out);
     }
     if let (MatrixFormat::Bin, Grouping::Patch, Enclosure::Raw, false, Some(path)) =

@@ -453,12 +453,12 @@ pub fn area_rows(
 }
 
 /// [`view_factors`] of rows made elsewhere (by processes, [`area_rows`] of their
-/// shares): `rows` one for each of [`row_patches`], in that order; the same result,
-/// to the bit, as [`view_factors`] making them.
+/// shares): `rows` one for each of [`row_patches`], in that order, each dropped once
+/// summed; the same result, to the bit, as [`view_factors`] making them.
 pub fn view_factors_of_rows(
     scene: &Scene,
     opts: &ViewFactorOptions,
-    rows: &[Row],
+    rows: Vec<Row>,
 ) -> Result<ViewFactors, Error> {
     let want = row_patches(scene);
     if rows.len() != want.len() || rows.iter().zip(&want).any(|(r, &p)| r.patch != p) {
@@ -471,8 +471,9 @@ pub fn view_factors_of_rows(
             ),
         });
     }
+    let mut rows = Some(rows);
     view_factors_with(scene, opts, &mut |sink| {
-        rows.iter().try_for_each(&mut *sink)
+        rows.take().into_iter().flatten().try_for_each(|r| sink(&r))
     })
 }
 

@@ -140,10 +140,10 @@ fn view_factors_of_shared_rows_are_one_runs_to_the_bit() {
             })
             .collect();
         let joined = join_rows(method, &ids, parts).unwrap();
-        let shared = view_factors_of_rows(&scene, &opts, &joined.rows).unwrap();
+        let shared = view_factors_of_rows(&scene, &opts, joined.rows.clone()).unwrap();
         assert_eq!(shared.matrix.rows, whole.matrix.rows, "{by:?}");
         assert_eq!(shared.back, whole.back);
         // Rows not one a patch, in order, are refused.
-        assert!(view_factors_of_rows(&scene, &opts, &joined.rows[1..]).is_err());
+        assert!(view_factors_of_rows(&scene, &opts, joined.rows[1..].to_vec()).is_err());
     }
 }
