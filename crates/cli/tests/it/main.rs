@@ -1244,6 +1244,22 @@ fn temporaries(dir: &Path) -> Vec<String> {
         .collect()
 }
 
+/// The cube's scene file, and a solution of it written in `dir` (for `render`, `export`).
+fn cube_and_solution(dir: &Path) -> (PathBuf, PathBuf) {
+    let cube = bench_scene("cube.json");
+    let solution = dir.join("cube.solution.json");
+    let made = coherad(&[
+        "solve",
+        cube.to_str().unwrap(),
+        "--resolution",
+        "10x40",
+        "--out",
+        solution.to_str().unwrap(),
+    ]);
+    assert!(made.status.success());
+    (cube, solution)
+}
+
 /// Every command that writes a file, on the cube, writing `out` (a solution for the
 /// cube at `solution`).
 fn writing_commands(cube: &str, solution: &str, out: &str, ext: &str) -> Vec<Vec<String>> {
@@ -1289,17 +1305,7 @@ fn a_full_disk_is_a_clear_error_that_keeps_the_old_file() {
     // blocks of 512 or 1,024 bytes) and ignores SIGXFSZ, so that writes past it fail
     // with EFBIG as they would with ENOSPC on a full disk; every output is larger.
     let dir = tempfile::tempdir().unwrap();
-    let cube = bench_scene("cube.json");
-    let solution = dir.path().join("cube.solution.json");
-    let made = coherad(&[
-        "solve",
-        cube.to_str().unwrap(),
-        "--resolution",
-        "10x40",
-        "--out",
-        solution.to_str().unwrap(),
-    ]);
-    assert!(made.status.success());
+    let (cube, solution) = cube_and_solution(dir.path());
     for ext in ["json", "exr", "glb", "bin", "mtx", "csv"] {
         let out = dir.path().join(format!("out.{ext}"));
         let (c, s, o) = (
@@ -1375,17 +1381,7 @@ fn runs_writing_one_output_at_once_leave_one_whole_file() {
     // renames a whole file into place, so the output is one of them, to the byte (they
     // are all the same here, but for a solution's timings), and no temporary is left.
     let dir = tempfile::tempdir().unwrap();
-    let cube = bench_scene("cube.json");
-    let solution = dir.path().join("cube.solution.json");
-    let made = coherad(&[
-        "solve",
-        cube.to_str().unwrap(),
-        "--resolution",
-        "10x40",
-        "--out",
-        solution.to_str().unwrap(),
-    ]);
-    assert!(made.status.success());
+    let (cube, solution) = cube_and_solution(dir.path());
     for ext in ["json", "exr", "bin"] {
         let out = dir.path().join(format!("out.{ext}"));
         let (c, s, o) = (
