@@ -7,8 +7,8 @@ use rad_pipeline::images::{radiance_of, render_to_files};
 use rad_pipeline::output::{
     write_atomic, write_patches_json, write_row_json, write_rows_footer, write_rows_header,
 };
-use rad_pipeline::share;
-use rad_pipeline::solve::{read_solution, solve_scene, SolveOptions};
+use rad_pipeline::share::{self, Peers};
+use rad_pipeline::solve::{read_solution, solve_scene_shared, SolveOptions};
 use rad_pipeline::viewfactors::{
     area_rows, check_format, count_surfaces, row_patches, stream_patch_matrix, view_factors,
     view_factors_of_rows, write_view_factors, Grouping, MatrixFormat, ViewFactorOptions,
@@ -512,11 +512,11 @@ fn run(cli: &Cli, ranks: &Ranks) -> Result<(), String> {
     let load = |path: &Path| load_scene_file(cli, path);
     let shared = matches!(
         cli.command,
-        Command::Formfactors { .. } | Command::Viewfactors { .. }
+        Command::Formfactors { .. } | Command::Viewfactors { .. } | Command::Solve { .. }
     );
     if ranks.size() > 1 && !shared {
         return Err(format!(
-            "under MPI ({} ranks) only `coherad formfactors` and `viewfactors` are shared so far: run this command as one process",
+            "under MPI ({} ranks) only `coherad formfactors`, `viewfactors` and `solve` are shared: run this command as one process",
             ranks.size()
         ));
     }
@@ -593,7 +593,7 @@ fn run(cli: &Cli, ranks: &Ranks) -> Result<(), String> {
                 storage: *storage,
                 memory_limit: parse_bytes(memory_limit)?,
             };
-            solve(&scene, resolution, method, &how, out)
+            solve(&scene, resolution, method, &how, out, ranks)
         }
         Command::Render(args) => render(&load(&args.scene)?, args),
         Command::Export(args) => export_scene(&load(&args.scene)?, args),
@@ -743,36 +743,30 @@ fn shared_rows(
     make: &MakeRows<'_>,
 ) -> Result<Option<rad_pipeline::Rows>, String> {
     let progress = |n: usize| bar.set_position(n as u64);
-    if ranks.size() == 1 {
-        let made = make(ids, &progress)?;
-        bar.finish_and_clear();
-        return Ok(Some(made));
-    }
-    let shares = share::shares(&scene.scene, method, ids, ranks.size());
-    let mine = &shares[ranks.rank()];
-    let mut key: Vec<u8> = what.as_bytes().to_vec();
-    key.extend(ids.iter().flat_map(|p| p.to_le_bytes()));
-    let fingerprint = share::run_fingerprint(scene.hash, &key).to_le_bytes();
-    bar.set_length(mine.patches.len() as u64);
-    let part = make(&mine.patches, &progress).map(|r| {
-        let mut bytes = fingerprint.to_vec();
-        share::encode_rows_into(&r, &mut bytes);
-        bytes
-    });
-    bar.finish_and_clear();
-    let Some(parts) = ranks.gather(part)? else {
-        return Ok(None);
+    let mut make = |ids: &[u32]| {
+        bar.set_length(ids.len() as u64);
+        make(ids, &progress).map_err(rad_pipeline::Error::Peers)
     };
-    let mut made = Vec::with_capacity(parts.len());
-    // (Each part's bytes dropped as soon as it is read.)
-    for (r, p) in parts.into_iter().enumerate() {
-        if p.get(..8) != Some(&fingerprint[..]) {
-            return Err(format!(
-                "rank {r} made rows of another run (another scene file, resolution, method, options or patch list): start every rank with the same command"
-            ));
-        }
-        made.push(share::decode_rows(&p[8..], method).map_err(|e| format!("rank {r}: {e}"))?);
+    let shared = share::shared_rows(
+        &scene.scene,
+        scene.hash,
+        method,
+        ids,
+        ranks,
+        what.as_bytes(),
+        false,
+        &mut make,
+    )
+    .map_err(|e| e.to_string())?;
+    bar.finish_and_clear();
+    if ranks.size() > 1 && shared.rows.is_some() {
+        say_balance(&shared.shares);
     }
+    Ok(shared.rows)
+}
+
+/// The work units of each rank's share, and the largest over the mean.
+fn say_balance(shares: &[share::Share]) {
     let units: Vec<String> = shares.iter().map(|s| format!("{:.0}", s.units)).collect();
     let mean = shares.iter().map(|s| s.units).sum::<f64>() / shares.len() as f64;
     let worst = shares.iter().map(|s| s.units).fold(0.0, f64::max);
@@ -782,9 +776,6 @@ fn shared_rows(
         units.join(" / "),
         worst / mean
     );
-    share::join_rows(method, ids, made)
-        .map(Some)
-        .map_err(|e| e.to_string())
 }
 
 /// The view-factor options of `coherad viewfactors`' flags.
@@ -1145,6 +1136,7 @@ fn solve(
     method: RowMethod,
     how: &How,
     out: &Path,
+    ranks: &Ranks,
 ) -> Result<(), String> {
     if let Some(t) = how.tolerance.filter(|t| !(t.is_finite() && *t > 0.0)) {
         return Err(format!("--tolerance must be finite and > 0, not {t}"));
@@ -1190,23 +1182,34 @@ fn solve(
     }
     let n = scene.scene.patches().len();
     let bar = row_bar(&hemi, method, n);
-    let (file, solved, stats) = solve_scene(scene, &hemi, method, &opts, &|p| match p {
-        Progress::Rows(k) => {
-            bar.set_position(k as u64);
-            if k == n {
-                bar.set_message(format!("rows done; solving ({})", opts.solver.name()));
+    let solved = solve_scene_shared(
+        scene,
+        &hemi,
+        method,
+        &opts,
+        &|p| match p {
+            Progress::Rows(k) => {
+                bar.set_position(k as u64);
+                if k == n {
+                    bar.set_message(format!("rows done; solving ({})", opts.solver.name()));
+                }
             }
-        }
-        Progress::Shots { shots, unshot } => {
-            bar.set_position((n as u64).min(shots as u64));
-            bar.set_message(format!(
-                "matrix-free: {shots} shots, {:.2e} of the power unshot",
-                unshot
-            ));
-        }
-    })
+            Progress::Shots { shots, unshot } => {
+                bar.set_position((n as u64).min(shots as u64));
+                bar.set_message(format!(
+                    "matrix-free: {shots} shots, {:.2e} of the power unshot",
+                    unshot
+                ));
+            }
+        },
+        ranks,
+    )
     .map_err(|e| e.to_string())?;
     bar.finish_and_clear();
+    // (Rank 0 speaks for the run and writes its file.)
+    let Some((file, solved, stats)) = solved else {
+        return Ok(());
+    };
     report_estimates(method, &stats);
     if solved.matrix.storage == Storage::MatrixFree.name() {
         say!(

@@ -1,5 +1,7 @@
 //! One process: what the `mpi` feature's ranks are when it is off.
 
+use rad_pipeline::share::{Alone, Peers};
+
 /// The processes sharing this run: here one.
 pub struct Ranks;
 
@@ -7,18 +9,23 @@ impl Ranks {
     pub fn init() -> Ranks {
         Ranks
     }
-    pub fn rank(&self) -> usize {
-        0
-    }
-    pub fn size(&self) -> usize {
-        1
-    }
-    /// Whether this run's parts were already gathered (never needed with one process).
+    /// Whether this run's collectives are over (never needed with one process).
     pub fn gathered(&self) -> bool {
         true
     }
-    /// Every rank's part, in rank order, on rank 0 (here this one's).
-    pub fn gather(&self, part: Result<Vec<u8>, String>) -> Result<Option<Vec<Vec<u8>>>, String> {
-        part.map(|p| Some(vec![p]))
+}
+
+impl Peers for Ranks {
+    fn rank(&self) -> usize {
+        0
+    }
+    fn size(&self) -> usize {
+        1
+    }
+    fn gather(&self, part: Result<Vec<u8>, String>) -> Result<Option<Vec<Vec<u8>>>, String> {
+        Alone.gather(part)
+    }
+    fn all_gather(&self, part: Result<Vec<u8>, String>) -> Result<Vec<Vec<u8>>, String> {
+        Alone.all_gather(part)
     }
 }

@@ -84,6 +84,9 @@ pub enum Error {
         limit_mib: u64,
         hint: &'static str,
     },
+    /// The processes sharing a run disagree, or one of them failed (its error).
+    #[error("{0}")]
+    Peers(String),
     #[error("{}: {reason}", path.display())]
     Solution {
         path: std::path::PathBuf,

@@ -279,3 +279,107 @@ pub fn join_rows(method: RowMethod, patches: &[PatchId], parts: Vec<Rows>) -> Re
     }
     Ok(all)
 }
+
+/// The processes a run is shared among, as the pipeline sees them: their number, this
+/// one's place, and two collectives that every process calls in the same sequence. A
+/// process's own failure is passed in as an `Err`, so that no process is left waiting;
+/// when any part is an error, every process gets the same error (the first, by rank).
+pub trait Peers {
+    fn rank(&self) -> usize;
+    fn size(&self) -> usize;
+    /// Every process's part, in rank order, on the first (`None` on the others).
+    fn gather(&self, part: Result<Vec<u8>, String>) -> Result<Option<Vec<Vec<u8>>>, String>;
+    /// Every process's part, in rank order, on every process.
+    fn all_gather(&self, part: Result<Vec<u8>, String>) -> Result<Vec<Vec<u8>>, String>;
+}
+
+/// One process alone.
+pub struct Alone;
+
+impl Peers for Alone {
+    fn rank(&self) -> usize {
+        0
+    }
+    fn size(&self) -> usize {
+        1
+    }
+    fn gather(&self, part: Result<Vec<u8>, String>) -> Result<Option<Vec<Vec<u8>>>, String> {
+        part.map(|p| Some(vec![p]))
+    }
+    fn all_gather(&self, part: Result<Vec<u8>, String>) -> Result<Vec<Vec<u8>>, String> {
+        part.map(|p| vec![p])
+    }
+}
+
+/// Rows shared among [`Peers`]: what [`shared_rows`] gives.
+#[derive(Debug)]
+pub struct SharedRows {
+    /// The rows of the list, in its order (`None` on the processes but the first when
+    /// gathered on the first only).
+    pub rows: Option<Rows>,
+    /// Each process's share.
+    pub shares: Vec<Share>,
+}
+
+/// The rows of `patches` by `method`, each of `peers` making its [`shares`] share with
+/// `make` and the rows joined in the list's order (the same to the bit as one process's
+/// rows), on the first process only or, with `everyone`, on every process. Each part
+/// begins with [`run_fingerprint`] of `scene_hash` and `what` (the caller's resolution,
+/// method and options) and the patch list, so that processes started on different runs
+/// are an error, not a mixed output.
+#[allow(clippy::too_many_arguments)]
+pub fn shared_rows(
+    scene: &Scene,
+    scene_hash: u64,
+    method: RowMethod,
+    patches: &[PatchId],
+    peers: &dyn Peers,
+    what: &[u8],
+    everyone: bool,
+    make: &mut dyn FnMut(&[PatchId]) -> Result<Rows, Error>,
+) -> Result<SharedRows, Error> {
+    let shares = shares(scene, method, patches, peers.size());
+    if peers.size() == 1 {
+        let rows = make(patches)?;
+        return Ok(SharedRows {
+            rows: Some(rows),
+            shares,
+        });
+    }
+    let mut key = what.to_vec();
+    key.extend(patches.iter().flat_map(|p| p.to_le_bytes()));
+    let fingerprint = run_fingerprint(scene_hash, &key).to_le_bytes();
+    let part = make(&shares[peers.rank()].patches)
+        .map(|r| {
+            let mut bytes = fingerprint.to_vec();
+            encode_rows_into(&r, &mut bytes);
+            bytes
+        })
+        .map_err(|e| e.to_string());
+    let parts = if everyone {
+        Some(peers.all_gather(part))
+    } else {
+        peers.gather(part).transpose()
+    };
+    let Some(parts) = parts else {
+        return Ok(SharedRows { rows: None, shares });
+    };
+    let parts = parts.map_err(Error::Peers)?;
+    let mut made = Vec::with_capacity(parts.len());
+    // (Each part's bytes dropped as soon as it is read.)
+    for (r, p) in parts.into_iter().enumerate() {
+        if p.get(..8) != Some(&fingerprint[..]) {
+            return Err(Error::Peers(format!(
+                "rank {r} made rows of another run (another scene file, resolution, method, options or patch list): start every rank with the same command"
+            )));
+        }
+        made.push(
+            decode_rows(&p[8..], method).map_err(|e| Error::Peers(format!("rank {r}: {e}")))?,
+        );
+    }
+    let rows = join_rows(method, patches, made)?;
+    Ok(SharedRows {
+        rows: Some(rows),
+        shares,
+    })
+}

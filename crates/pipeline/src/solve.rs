@@ -299,6 +299,23 @@ pub fn solve_scene(
     opts: &SolveOptions,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<(SolutionFile, Solved, EstimateStats), Error> {
+    let solved = solve_scene_shared(scene, hemi, method, opts, progress, &crate::share::Alone)?;
+    Ok(solved.expect("one process solves"))
+}
+
+/// [`solve_scene`] shared among `peers` (MPI ranks, say), the same solution to the bit
+/// whatever their number: stored, each makes its share of the rows ([`crate::share`]),
+/// gathered on the first, which solves; matrix-free, every process runs the same
+/// shooting, each making its share of every batch's rows, which all of them gather.
+/// `None` on the processes but the first.
+pub fn solve_scene_shared(
+    scene: &SceneFile,
+    hemi: &Hemisphere,
+    method: RowMethod,
+    opts: &SolveOptions,
+    progress: &(dyn Fn(Progress) + Sync),
+    peers: &dyn crate::share::Peers,
+) -> Result<Option<(SolutionFile, Solved, EstimateStats)>, Error> {
     if !opts.reciprocal && opts.solver == Solver::Progressive {
         return Err(Error::Parse {
             what: "solver",
@@ -317,41 +334,78 @@ pub fn solve_scene(
     let t = Instant::now();
     if storage == Storage::MatrixFree {
         let (solution, m) = crate::storage::solve_matrix_free(
-            &scene.scene,
+            scene,
             hemi,
             method,
             &surfaces(&scene.scene),
-            &opts.matrix_free,
-            opts.memory_limit,
+            opts,
             progress,
+            peers,
         )?;
+        if peers.rank() > 0 {
+            return Ok(None);
+        }
         let solved = Solved::matrix_free(solution, m, 0.0, t.elapsed().as_secs_f64());
         check_finite(&solved)?;
         let stats = EstimateStats {
             exact: m.rows_made,
             ..EstimateStats::default()
         };
-        return Ok((
+        return Ok(Some((
             solution_file(scene, hemi, method, opts, &solved, 0.0),
             solved,
             stats,
-        ));
+        )));
     }
     let mut builder = PairBuilder::new(n);
     let rows_progress = |k| progress(Progress::Rows(k));
-    let stats = crate::rows_streamed(&scene.scene, hemi, method, &rows_progress, &mut |made| {
-        for r in &made.rows {
+    let stats = if peers.size() == 1 {
+        crate::rows_streamed(&scene.scene, hemi, method, &rows_progress, &mut |made| {
+            for r in &made.rows {
+                builder.push_row(r.patch, &r.entries)?;
+            }
+            Ok(())
+        })?
+    } else {
+        let all: Vec<PatchId> = (0..n as PatchId).collect();
+        let what = solve_key(hemi, method, opts);
+        let shared = crate::share::shared_rows(
+            &scene.scene,
+            scene.hash,
+            method,
+            &all,
+            peers,
+            what.as_bytes(),
+            false,
+            &mut |ids| crate::rows(&scene.scene, hemi, method, ids, &rows_progress),
+        )?;
+        let Some(made) = shared.rows else {
+            return Ok(None);
+        };
+        // (Each row dropped once pushed.)
+        for r in made.rows {
             builder.push_row(r.patch, &r.entries)?;
         }
-        Ok(())
-    })?;
+        made.stats
+    };
     let raw = builder.finish()?;
     let form_factors_seconds = t.elapsed().as_secs_f64();
     let solved = solve_pairs(&raw, &surfaces(&scene.scene), opts)?;
     drop(raw);
     check_finite(&solved)?;
     let file = solution_file(scene, hemi, method, opts, &solved, form_factors_seconds);
-    Ok((file, solved, stats))
+    Ok(Some((file, solved, stats)))
+}
+
+/// What processes sharing a solve must agree on besides the scene (for
+/// [`crate::share::run_fingerprint`]).
+pub(crate) fn solve_key(hemi: &Hemisphere, method: RowMethod, opts: &SolveOptions) -> String {
+    format!(
+        "solve {}x{} {} {opts:?}",
+        hemi.n_theta(),
+        hemi.n_phi(),
+        method.name()
+    )
 }
 
 /// The solution file of a solve.

@@ -2,8 +2,10 @@
 //! limit, else matrix-free shooting (each shooter's row made when it shoots, kept while
 //! the limit allows), chosen from a sample of rows.
 
-use crate::{rows_with_caster, CasterJob, Error, RowMethod, STREAM_CHUNK};
+use crate::share::Peers;
+use crate::{rows_with_caster, CasterJob, Error, RowMethod, Rows, STREAM_CHUNK};
 use rad_core::PatchId;
+use rad_estimator::EstimateStats;
 use rad_geometry::Scene;
 use rad_hemisphere::{compute_rows, Caster, Hemisphere};
 use rad_solver::{
@@ -107,15 +109,17 @@ fn matrix_free_floor(n: usize, mean_entries: f64) -> f64 {
 }
 
 /// Matrix-free shooting of `scene`'s exact rows through `method`'s caster, rows kept in
-/// what `limit` leaves.
+/// what the memory limit leaves. Shared among `peers`, every process runs the same
+/// shooting and each batch's rows are made in shares ([`crate::share::shared_rows`]) and
+/// gathered by every process: the same shots, to the bit, whatever their number.
 pub(crate) fn solve_matrix_free(
-    scene: &Scene,
+    scene: &crate::SceneFile,
     hemi: &Hemisphere,
     method: RowMethod,
     surfaces: &Surfaces,
-    config: &rad_solver::SolveConfig,
-    limit: usize,
+    opts: &crate::solve::SolveOptions,
     progress: &(dyn Fn(Progress) + Sync),
+    peers: &dyn Peers,
 ) -> Result<(Solution, MatrixFreeStats), Error> {
     if !method.is_exact() {
         return Err(Error::Parse {
@@ -126,38 +130,72 @@ pub(crate) fn solve_matrix_free(
         });
     }
     struct Job<'a> {
-        scene: &'a Scene,
+        scene: &'a crate::SceneFile,
         hemi: &'a Hemisphere,
+        method: RowMethod,
         surfaces: &'a Surfaces,
         config: MatrixFreeConfig,
         progress: &'a (dyn Fn(Progress) + Sync),
+        peers: &'a dyn Peers,
+        key: String,
     }
     impl CasterJob for Job<'_> {
         type Out = (Solution, MatrixFreeStats);
         fn run<C: Caster>(self, caster: &C) -> Result<Self::Out, Error> {
+            let scene = &self.scene.scene;
+            let mut make = |ids: &[PatchId]| -> Result<Rows, Error> {
+                let rows = compute_rows(scene, caster, self.hemi, ids, &|_| {})?;
+                Ok(Rows {
+                    method: self.method,
+                    sources: vec![None; rows.len()],
+                    stats: EstimateStats {
+                        exact: rows.len(),
+                        ..EstimateStats::default()
+                    },
+                    rows,
+                })
+            };
             let mut rows = |ids: &[PatchId]| -> Result<Vec<ShotRow>, Error> {
-                let made = compute_rows(self.scene, caster, self.hemi, ids, &|_| {})?;
-                Ok(made.into_iter().map(shot_row).collect())
+                let made = if self.peers.size() == 1 {
+                    make(ids)?
+                } else {
+                    crate::share::shared_rows(
+                        scene,
+                        self.scene.hash,
+                        self.method,
+                        ids,
+                        self.peers,
+                        self.key.as_bytes(),
+                        true,
+                        &mut make,
+                    )?
+                    .rows
+                    .expect("gathered by every process")
+                };
+                Ok(made.rows.into_iter().map(shot_row).collect())
             };
             let mut progress = |shots, unshot| (self.progress)(Progress::Shots { shots, unshot });
             shoot_matrix_free(self.surfaces, &self.config, &mut rows, &mut progress)
         }
     }
-    let n = scene.patches().len();
-    let cache_bytes = (limit as f64 - matrix_free_floor(n, 0.0)).max(0.0) as usize;
+    let n = scene.scene.patches().len();
+    let cache_bytes = (opts.memory_limit as f64 - matrix_free_floor(n, 0.0)).max(0.0) as usize;
     rows_with_caster(
-        scene,
+        &scene.scene,
         method.caster(),
         Job {
             scene,
             hemi,
+            method,
             surfaces,
             config: MatrixFreeConfig {
-                solve: *config,
+                solve: opts.matrix_free,
                 batch: MATRIX_FREE_BATCH,
                 cache_bytes,
             },
             progress,
+            peers,
+            key: crate::solve::solve_key(hemi, method, opts),
         },
     )
 }

@@ -1,7 +1,8 @@
 //! `coherad` under `mpirun` (the `mpi` feature: `cargo test -p coherad --features mpi`;
 //! needs Open MPI's `mpirun` on the PATH, which `.ci/run` installs): rows shared among
-//! ranks are one process's to the bit, balanced by work units, and a rank that fails
-//! or dies ends the run with an error and no output.
+//! ranks are one process's to the bit, balanced by work units, solves are one
+//! process's solution to the bit, and a rank that fails or dies ends the run with an
+//! error and no output.
 
 use super::{bench_scene, coherad, temporaries};
 use std::path::Path;
@@ -191,14 +192,91 @@ fn a_rank_that_fails_or_dies_ends_the_run_with_no_output() {
     assert!(!out.exists(), "a partial output");
     // (The killed rank's and rank 0's temporaries, if any, are cleared by the next write.)
     let _ = temporaries(dir.path());
-    // Commands not shared yet are refused by name.
-    let run = mpirun(2, &["solve", l, "--out", o]);
+    // Ranks of a matrix-free solve started with different tolerances: refused at the
+    // first batch of shooters' rows, with no output.
+    let solve = |tolerance: &'static str| {
+        vec![
+            "solve",
+            l,
+            "--resolution",
+            "12x48",
+            "--storage",
+            "matrix-free",
+            "--tolerance",
+            tolerance,
+            "--out",
+            o,
+        ]
+    };
+    let run = two_programs(&solve("1e-3"), &solve("1e-4"));
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && err.contains("made rows of another run"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    // Commands not shared are refused by name.
+    let run = mpirun(2, &["patches", l, "--out", o]);
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(
         !run.status.success()
-            && err.contains("only `coherad formfactors` and `viewfactors` are shared"),
+            && err.contains("only `coherad formfactors`, `viewfactors` and `solve` are shared"),
         "{err}"
     );
+}
+
+/// A solution file without its timings (which differ from run to run).
+fn solution_without_timings(path: &str) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v.as_object_mut().unwrap().remove("timings");
+    v
+}
+
+#[test]
+fn ranks_solve_as_one_process_does_stored_and_matrix_free() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    for (scene, flags) in [
+        ("loft.json", &["--storage", "stored"][..]),
+        (
+            "loft.json",
+            &["--storage", "stored", "--method", "estimated"][..],
+        ),
+        ("loft.json", &["--storage", "matrix-free"][..]),
+        ("blob_room.json", &["--storage", "matrix-free"][..]),
+        (
+            "cornell.json",
+            &["--storage", "stored", "--solver", "progressive"][..],
+        ),
+    ] {
+        let path = bench_scene(scene);
+        let mut args = vec!["solve", path.to_str().unwrap(), "--resolution", "12x48"];
+        args.extend_from_slice(flags);
+        let alone = out("alone.json");
+        let mut one = args.clone();
+        one.extend(["--out", &alone]);
+        let run = coherad(&one);
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let want = solution_without_timings(&alone);
+        for n in [2, 3] {
+            let shared = out(&format!("ranks{n}.json"));
+            let mut many = args.clone();
+            many.extend(["--out", &shared]);
+            let run = mpirun(n, &many);
+            let err = String::from_utf8_lossy(&run.stderr);
+            assert!(run.status.success(), "{scene} {flags:?} -n {n}: {err}");
+            // The same radiosities, iterations, residual and energy, to the bit.
+            assert!(
+                solution_without_timings(&shared) == want,
+                "{scene} {flags:?} -n {n}: the solution differs"
+            );
+        }
+    }
 }
 
 /// One job of two programs (mpirun's `:`): rank 0 runs coherad with `first`, rank 1
