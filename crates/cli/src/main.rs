@@ -1130,6 +1130,16 @@ fn parse_bytes(text: &str) -> Result<usize, String> {
     }
 }
 
+/// Warns of a scene in which nothing emits (every radiosity would be 0).
+fn warn_if_nothing_emits(scene: &SceneFile) {
+    let sc = &scene.scene;
+    if (0..sc.patches().len()).all(|p| sc.patch_material(p as u32).emission.0 == [0.0; 3]) {
+        warn!(
+            "warning: no polygon emits light (every material's emission is 0): every radiosity will be 0; give a material an \"emission\" (or use --materials)"
+        );
+    }
+}
+
 fn solve(
     scene: &SceneFile,
     resolution: &str,
@@ -1150,12 +1160,7 @@ fn solve(
         );
     }
     let hemi = hemisphere(resolution)?;
-    let sc = &scene.scene;
-    if (0..sc.patches().len()).all(|p| sc.patch_material(p as u32).emission.0 == [0.0; 3]) {
-        warn!(
-            "warning: no polygon emits light (every material's emission is 0): every radiosity will be 0; give a material an \"emission\" (or use --materials)"
-        );
-    }
+    warn_if_nothing_emits(scene);
     let storage = match how.storage {
         StorageKind::Auto => None,
         StorageKind::Stored => Some(Storage::Stored),
