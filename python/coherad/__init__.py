@@ -130,7 +130,7 @@ class Scene:
               tolerance=None, reciprocal=True, with_report=False):
         """Radiosity B of every patch (numpy (n, 3)), as `coherad solve` computes it:
         rows at `resolution`, made reciprocal (unless `reciprocal=False`), solved by
-        "gauss-seidel" or "progressive" to `tolerance`. With `with_report`, also a dict
+        "gauss-seidel", "progressive" or "jacobi" to `tolerance`. With `with_report`, also a dict
         (converged, iterations, residual, relative_imbalance, storage)."""
         raw, report = self._s.solve_raw(_resolution(resolution), method, caster, solver,
                                         tolerance, reciprocal)

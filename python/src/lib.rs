@@ -314,10 +314,11 @@ impl Scene {
             solver: match solver {
                 "gauss-seidel" => Solver::GaussSeidel,
                 "progressive" => Solver::Progressive,
+                "jacobi" => Solver::Jacobi,
                 _ => {
                     return Err(fail(format!(
-                        "solver {solver:?}: expected \"gauss-seidel\" or \"progressive\""
-                    )))
+                    "solver {solver:?}: expected \"gauss-seidel\", \"progressive\" or \"jacobi\""
+                )))
                 }
             },
             reciprocal,

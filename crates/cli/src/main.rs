@@ -186,7 +186,8 @@ enum Command {
         resolution: String,
         #[command(flatten)]
         rows: RowFlags,
-        /// gauss-seidel (gathering) or progressive (shooting by unshot power).
+        /// gauss-seidel (gathering), progressive (shooting by unshot power) or jacobi
+        /// (sweeps from the last sweep's radiosities: under MPI each rank holds only its rows).
         #[arg(long, value_enum, default_value_t = SolverKind::GaussSeidel)]
         solver: SolverKind,
         /// Stop when max |E + rho F B - B| / max B is at most this (stored: default 1e-9);
@@ -291,6 +292,8 @@ struct RenderArgs {
 enum SolverKind {
     GaussSeidel,
     Progressive,
+    /// Jacobi sweeps over stored rows; under MPI each rank holds only its own rows.
+    Jacobi,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -747,17 +750,14 @@ fn shared_rows(
         bar.set_length(ids.len() as u64);
         make(ids, &progress).map_err(rad_pipeline::Error::Peers)
     };
-    let shared = share::shared_rows(
-        &scene.scene,
-        scene.hash,
+    let run = share::SharedRun {
+        scene: &scene.scene,
+        scene_hash: scene.hash,
         method,
-        ids,
-        ranks,
-        what.as_bytes(),
-        false,
-        &mut make,
-    )
-    .map_err(|e| e.to_string())?;
+        what: what.as_bytes(),
+    };
+    let shared =
+        share::shared_rows(run, ids, ranks, false, &mut make).map_err(|e| e.to_string())?;
     bar.finish_and_clear();
     if ranks.size() > 1 && shared.rows.is_some() {
         say_balance(&shared.shares);
@@ -1170,6 +1170,7 @@ fn solve(
         solver: match how.solver {
             SolverKind::GaussSeidel => Solver::GaussSeidel,
             SolverKind::Progressive => Solver::Progressive,
+            SolverKind::Jacobi => Solver::Jacobi,
         },
         reciprocal: !how.raw,
         storage,
@@ -1198,6 +1199,9 @@ fn solve(
                 if k == n {
                     bar.set_message(format!("rows done; solving ({})", opts.solver.name()));
                 }
+            }
+            Progress::Sweeps { sweeps, residual } => {
+                bar.set_message(format!("jacobi: {sweeps} sweeps, residual {residual:.2e}"));
             }
             Progress::Shots { shots, unshot } => {
                 bar.set_position((n as u64).min(shots as u64));

@@ -3,6 +3,7 @@
 //! [`RowMethod`], the reciprocal matrix and its solve, solution files written and read
 //! back, images written. It computes and writes; it never prints.
 
+mod by_rows;
 pub mod export;
 pub mod images;
 pub mod matrix_file;
@@ -28,7 +29,7 @@ pub use rad_geometry::{Camera, Triangulation};
 pub use rad_hemisphere::{Hemisphere, HemisphereConfig, Row};
 pub use rad_render::{RenderConfig, Shading, View};
 pub use rad_solver::{Enclosure, SolveConfig, Solver};
-pub use rows::{rows, rows_streamed, Rows, STREAM_CHUNK};
+pub use rows::{rows, rows_streamed, rows_streamed_of, Rows, STREAM_CHUNK};
 pub(crate) use rows::{with_caster as rows_with_caster, CasterJob};
 pub use scene_file::SceneFile;
 pub use storage::{Progress, Storage, DEFAULT_MEMORY_LIMIT, MATRIX_FREE_BATCH};

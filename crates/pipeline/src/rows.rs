@@ -82,10 +82,26 @@ pub fn rows_streamed(
     progress: &(dyn Fn(usize) + Sync),
     sink: &mut (dyn FnMut(Rows) -> Result<(), Error> + Send),
 ) -> Result<EstimateStats, Error> {
+    let all: Vec<PatchId> = (0..scene.patches().len() as PatchId).collect();
+    rows_streamed_of(scene, hemi, method, &all, progress, sink)
+}
+
+/// [`rows_streamed`] over `patches` (in their order; a polygon's patches together, as
+/// a share of [`crate::share::shares`] keeps them): the rows of [`rows`] over `patches`,
+/// chunk by chunk.
+pub fn rows_streamed_of(
+    scene: &Scene,
+    hemi: &Hemisphere,
+    method: RowMethod,
+    patches: &[PatchId],
+    progress: &(dyn Fn(usize) + Sync),
+    sink: &mut (dyn FnMut(Rows) -> Result<(), Error> + Send),
+) -> Result<EstimateStats, Error> {
     struct Job<'a, 'b> {
         scene: &'a Scene,
         hemi: &'a Hemisphere,
         method: RowMethod,
+        patches: &'a [PatchId],
         progress: &'a (dyn Fn(usize) + Sync),
         sink: &'b mut (dyn FnMut(Rows) -> Result<(), Error> + Send),
     }
@@ -93,18 +109,20 @@ pub fn rows_streamed(
         type Out = EstimateStats;
         fn run<C: Caster>(self, caster: &C) -> Result<EstimateStats, Error> {
             let mut stats = EstimateStats::default();
-            let chunks = stream_chunks(self.scene);
+            let chunks = chunks_of(self.scene, self.patches);
             let sink = self.sink;
             for_each_chunk(
                 &chunks,
                 |r| {
-                    let (patches, progress) = chunk_patches(r, self.progress);
+                    let base = r.start;
+                    let progress = |k| (self.progress)(base + k);
+                    let patches = &self.patches[r.clone()];
                     let made = rows_with(
                         self.scene,
                         caster,
                         self.hemi,
                         self.method,
-                        &patches,
+                        patches,
                         &progress,
                     )?;
                     check_finite(&made)?;
@@ -125,6 +143,7 @@ pub fn rows_streamed(
             scene,
             hemi,
             method,
+            patches,
             progress,
             sink,
         },
@@ -152,11 +171,18 @@ pub(crate) fn for_each_chunk<T: Send>(
 /// The patch ranges of [`rows_streamed`]'s chunks: whole polygons, each chunk at least
 /// [`STREAM_CHUNK`] patches but the last.
 pub(crate) fn stream_chunks(scene: &Scene) -> Vec<std::ops::Range<usize>> {
-    let patches = scene.patches();
+    let all: Vec<PatchId> = (0..scene.patches().len() as PatchId).collect();
+    chunks_of(scene, &all)
+}
+
+/// Ranges of `patches` holding whole polygons (of consecutive patches), each at least
+/// [`STREAM_CHUNK`] patches but the last.
+fn chunks_of(scene: &Scene, patches: &[PatchId]) -> Vec<std::ops::Range<usize>> {
+    let polygon = |k: usize| scene.patches()[patches[k] as usize].polygon;
     let mut out = Vec::new();
     let mut start = 0;
     for e in 1..=patches.len() {
-        let polygon_ends = e == patches.len() || patches[e].polygon != patches[e - 1].polygon;
+        let polygon_ends = e == patches.len() || polygon(e) != polygon(e - 1);
         if polygon_ends && (e - start >= STREAM_CHUNK || e == patches.len()) {
             out.push(start..e);
             start = e;

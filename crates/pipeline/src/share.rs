@@ -291,6 +291,9 @@ pub trait Peers {
     fn gather(&self, part: Result<Vec<u8>, String>) -> Result<Option<Vec<Vec<u8>>>, String>;
     /// Every process's part, in rank order, on every process.
     fn all_gather(&self, part: Result<Vec<u8>, String>) -> Result<Vec<Vec<u8>>, String>;
+    /// Each process's `parts[d]` sent to process `d` (one part a process, its own
+    /// included): what every process sent this one, in rank order.
+    fn exchange(&self, parts: Result<Vec<Vec<u8>>, String>) -> Result<Vec<Vec<u8>>, String>;
 }
 
 /// One process alone.
@@ -309,6 +312,161 @@ impl Peers for Alone {
     fn all_gather(&self, part: Result<Vec<u8>, String>) -> Result<Vec<Vec<u8>>, String> {
         part.map(|p| vec![p])
     }
+    fn exchange(&self, parts: Result<Vec<Vec<u8>>, String>) -> Result<Vec<Vec<u8>>, String> {
+        parts
+    }
+}
+
+/// `run` on `size` processes simulated by threads of this one, each given its
+/// [`Peers`] (collectives through shared memory, with the errors of MPI's ranks): what
+/// each returned, in rank order. For tests and the reproduction's simulated larger
+/// runs, which need no MPI. A process that returns or panics while others wait in a
+/// collective makes theirs an error (as `mpirun` ends a job whose rank died); a panic is
+/// passed on once every process has ended.
+pub fn in_threads<T: Send>(size: usize, run: impl Fn(&dyn Peers) -> T + Sync) -> Vec<T> {
+    let board = Board {
+        state: std::sync::Mutex::new(BoardState {
+            outgoing: (0..size).map(|_| None).collect(),
+            kinds: vec![0; size],
+            results: (0..size).map(|_| None).collect(),
+            arrived: 0,
+            generation: 0,
+            gone: 0,
+        }),
+        turn: std::sync::Condvar::new(),
+        size,
+    };
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..size)
+            .map(|rank| {
+                let (board, run) = (&board, &run);
+                scope.spawn(move || {
+                    let me = Thread { board, rank };
+                    let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(&me)));
+                    let mut st = board.state.lock().unwrap_or_else(|e| e.into_inner());
+                    st.gone += 1;
+                    board.turn.notify_all();
+                    out
+                })
+            })
+            .collect();
+        let ended: Vec<_> = handles.into_iter().map(|h| h.join()).collect();
+        ended
+            .into_iter()
+            .map(|e| match e {
+                Ok(Ok(v)) => v,
+                Ok(Err(p)) | Err(p) => std::panic::resume_unwind(p),
+            })
+            .collect()
+    })
+}
+
+type Parts = Result<Vec<Vec<u8>>, String>;
+
+/// What simulated processes share: each one's outgoing parts, then each one's result.
+struct Board {
+    state: std::sync::Mutex<BoardState>,
+    turn: std::sync::Condvar,
+    size: usize,
+}
+
+struct BoardState {
+    outgoing: Vec<Option<Parts>>,
+    /// Which collective each process called (0 gather, 1 all-gather, 2 exchange).
+    kinds: Vec<u8>,
+    results: Vec<Option<Parts>>,
+    arrived: usize,
+    generation: u64,
+    /// Processes whose `run` has ended (returned or panicked).
+    gone: usize,
+}
+
+/// One simulated process.
+struct Thread<'a> {
+    board: &'a Board,
+    rank: usize,
+}
+
+impl Thread<'_> {
+    /// Every process's `out[d]` to process `d` in a collective of `kind`; when any
+    /// process passes an error, every one gets the first (by rank), and when they call
+    /// different collectives, an "out of step" error, as MPI's ranks do.
+    fn swap(&self, kind: u8, out: Parts) -> Parts {
+        let b = self.board;
+        let mut st = b.state.lock().unwrap_or_else(|e| e.into_inner());
+        let ended = "a process ended while the others were in a collective";
+        if st.gone > 0 {
+            return Err(ended.into());
+        }
+        st.outgoing[self.rank] = Some(out);
+        st.kinds[self.rank] = kind;
+        st.arrived += 1;
+        if st.arrived == b.size {
+            let outs: Vec<Parts> = st.outgoing.iter_mut().map(|o| o.take().unwrap()).collect();
+            let mut failed = outs.iter().enumerate().find_map(|(r, o)| match o {
+                Err(e) => Some(format!("rank {r}: {e}")),
+                Ok(_) => None,
+            });
+            if failed.is_none() && st.kinds.iter().any(|&k| k != kind) {
+                failed = Some(
+                    "the processes are out of step (they called different collectives)".into(),
+                );
+            }
+            let mut sent: Vec<Vec<Vec<u8>>> =
+                outs.into_iter().map(|o| o.unwrap_or_default()).collect();
+            for d in 0..b.size {
+                st.results[d] = Some(match &failed {
+                    Some(e) => Err(e.clone()),
+                    None => Ok(sent.iter_mut().map(|s| std::mem::take(&mut s[d])).collect()),
+                });
+            }
+            st.arrived = 0;
+            st.generation += 1;
+            b.turn.notify_all();
+        } else {
+            let generation = st.generation;
+            while st.generation == generation {
+                if st.gone > 0 {
+                    st.arrived -= 1;
+                    st.outgoing[self.rank] = None;
+                    return Err(ended.into());
+                }
+                st = b.turn.wait(st).unwrap_or_else(|e| e.into_inner());
+            }
+        }
+        st.results[self.rank].take().unwrap()
+    }
+}
+
+impl Peers for Thread<'_> {
+    fn rank(&self) -> usize {
+        self.rank
+    }
+    fn size(&self) -> usize {
+        self.board.size
+    }
+    fn gather(&self, part: Result<Vec<u8>, String>) -> Result<Option<Vec<Vec<u8>>>, String> {
+        let size = self.board.size;
+        let out = part.map(|p| {
+            let mut v = vec![Vec::new(); size];
+            v[0] = p;
+            v
+        });
+        let got = self.swap(0, out)?;
+        Ok((self.rank == 0).then_some(got))
+    }
+    fn all_gather(&self, part: Result<Vec<u8>, String>) -> Result<Vec<Vec<u8>>, String> {
+        self.swap(1, part.map(|p| vec![p; self.board.size]))
+    }
+    fn exchange(&self, parts: Result<Vec<Vec<u8>>, String>) -> Result<Vec<Vec<u8>>, String> {
+        let size = self.board.size;
+        let parts = parts.and_then(|p| {
+            (p.len() == size)
+                .then_some(p)
+                .ok_or_else(|| format!("an exchange needs one part for each of {size} processes"))
+        });
+        self.swap(2, parts)
+    }
 }
 
 /// Rows shared among [`Peers`]: what [`shared_rows`] gives.
@@ -321,23 +479,35 @@ pub struct SharedRows {
     pub shares: Vec<Share>,
 }
 
-/// The rows of `patches` by `method`, each of `peers` making its [`shares`] share with
-/// `make` and the rows joined in the list's order (the same to the bit as one process's
-/// rows), on the first process only or, with `everyone`, on every process. Each part
-/// begins with [`run_fingerprint`] of `scene_hash` and `what` (the caller's resolution,
-/// method and options) and the patch list, so that processes started on different runs
-/// are an error, not a mixed output.
-#[allow(clippy::too_many_arguments)]
+/// What processes sharing rows must agree on: the scene (and its fingerprint), the
+/// method, and `what` (the caller's resolution and options, as bytes).
+#[derive(Clone, Copy)]
+pub struct SharedRun<'a> {
+    pub scene: &'a Scene,
+    pub scene_hash: u64,
+    pub method: RowMethod,
+    pub what: &'a [u8],
+}
+
+/// The rows of `patches` by the run's method, each of `peers` making its [`shares`]
+/// share with `make` and the rows joined in the list's order (the same to the bit as
+/// one process's rows), on the first process only or, with `everyone`, on every
+/// process. Each part begins with [`run_fingerprint`] of the run's scene fingerprint
+/// and `what` and the patch list, so that processes started on different runs are an
+/// error, not a mixed output.
 pub fn shared_rows(
-    scene: &Scene,
-    scene_hash: u64,
-    method: RowMethod,
+    run: SharedRun<'_>,
     patches: &[PatchId],
     peers: &dyn Peers,
-    what: &[u8],
     everyone: bool,
     make: &mut dyn FnMut(&[PatchId]) -> Result<Rows, Error>,
 ) -> Result<SharedRows, Error> {
+    let SharedRun {
+        scene,
+        scene_hash,
+        method,
+        what,
+    } = run;
     let shares = shares(scene, method, patches, peers.size());
     if peers.size() == 1 {
         let rows = make(patches)?;

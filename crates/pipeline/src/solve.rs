@@ -8,8 +8,8 @@ use rad_estimator::EstimateStats;
 use rad_geometry::Scene;
 use rad_hemisphere::Hemisphere;
 use rad_solver::{
-    energy_balance, gauss_seidel, progressive, EnergyBalance, FormFactors, PairBuilder, PairMatrix,
-    Reciprocity, Solution, SolveConfig, Solver, Surfaces,
+    energy_balance, gauss_seidel, jacobi, progressive, EnergyBalance, FormFactors, PairBuilder,
+    PairMatrix, Reciprocity, Solution, SolveConfig, Solver, Surfaces,
 };
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -73,8 +73,8 @@ impl Default for SolveOptions {
 }
 
 /// Tolerance and iteration cap of the reciprocal scaling.
-const SCALING_TOLERANCE: f64 = 1e-9;
-const SCALING_ITERATIONS: usize = 5_000;
+pub(crate) const SCALING_TOLERANCE: f64 = 1e-9;
+pub(crate) const SCALING_ITERATIONS: usize = 5_000;
 
 /// A solve and what it says about energy.
 #[derive(Clone, Debug)]
@@ -165,6 +165,7 @@ pub fn solve_pairs(
     let solution = match opts.solver {
         Solver::GaussSeidel => gauss_seidel(m, surfaces, &opts.config)?,
         Solver::Progressive => progressive(m, surfaces, &opts.config)?,
+        Solver::Jacobi => jacobi(m, surfaces, &opts.config)?,
     };
     let solve_seconds = t.elapsed().as_secs_f64();
     let balance = energy_balance(m, surfaces, &solution.radiosity);
@@ -329,8 +330,22 @@ pub fn solve_scene_shared(
     let n = scene.scene.patches().len();
     let storage = match opts.storage {
         Some(s) => s,
+        // (Its rows are shared by rows: a share's size is not what `choose` estimates.)
+        None if opts.solver == Solver::Jacobi => Storage::Stored,
         None => crate::storage::choose(&scene.scene, hemi, method, opts.memory_limit)?,
     };
+    if opts.solver == Solver::Jacobi {
+        if storage == Storage::MatrixFree {
+            return Err(Error::Parse {
+                what: "solver",
+                input: "jacobi".into(),
+                reason: "sweeps stored rows (--storage stored); matrix-free solving shoots, \
+                         by progressive refinement"
+                    .into(),
+            });
+        }
+        return crate::by_rows::solve_by_rows(scene, hemi, method, opts, progress, peers);
+    }
     let t = Instant::now();
     if storage == Storage::MatrixFree {
         let (solution, m) = crate::storage::solve_matrix_free(
@@ -369,16 +384,15 @@ pub fn solve_scene_shared(
     } else {
         let all: Vec<PatchId> = (0..n as PatchId).collect();
         let what = solve_key(hemi, method, opts);
-        let shared = crate::share::shared_rows(
-            &scene.scene,
-            scene.hash,
+        let run = crate::share::SharedRun {
+            scene: &scene.scene,
+            scene_hash: scene.hash,
             method,
-            &all,
-            peers,
-            what.as_bytes(),
-            false,
-            &mut |ids| crate::rows(&scene.scene, hemi, method, ids, &rows_progress),
-        )?;
+            what: what.as_bytes(),
+        };
+        let shared = crate::share::shared_rows(run, &all, peers, false, &mut |ids| {
+            crate::rows(&scene.scene, hemi, method, ids, &rows_progress)
+        })?;
         let Some(made) = shared.rows else {
             return Ok(None);
         };
@@ -409,7 +423,7 @@ pub(crate) fn solve_key(hemi: &Hemisphere, method: RowMethod, opts: &SolveOption
 }
 
 /// The solution file of a solve.
-fn solution_file(
+pub(crate) fn solution_file(
     scene: &SceneFile,
     hemi: &Hemisphere,
     method: RowMethod,
@@ -436,7 +450,7 @@ fn solution_file(
 }
 
 /// Refuses a solve that produced a non-finite radiosity, ambient term or energy figure.
-fn check_finite(solved: &Solved) -> Result<(), Error> {
+pub(crate) fn check_finite(solved: &Solved) -> Result<(), Error> {
     let bad = |what: String, value: f64, place| Err(Error::NonFinite { what, value, place });
     let s = &solved.solution;
     for (i, b) in s.radiosity.iter().enumerate() {

@@ -54,6 +54,8 @@ pub enum Progress {
     Rows(usize),
     /// Shots so far and the share of the emitted power still unshot (matrix-free).
     Shots { shots: usize, unshot: f64 },
+    /// Jacobi sweeps so far and the residual of the radiosities they reached.
+    Sweeps { sweeps: usize, residual: f64 },
 }
 
 fn mib(bytes: f64) -> u64 {
@@ -159,18 +161,15 @@ pub(crate) fn solve_matrix_free(
                 let made = if self.peers.size() == 1 {
                     make(ids)?
                 } else {
-                    crate::share::shared_rows(
+                    let run = crate::share::SharedRun {
                         scene,
-                        self.scene.hash,
-                        self.method,
-                        ids,
-                        self.peers,
-                        self.key.as_bytes(),
-                        true,
-                        &mut make,
-                    )?
-                    .rows
-                    .expect("gathered by every process")
+                        scene_hash: self.scene.hash,
+                        method: self.method,
+                        what: self.key.as_bytes(),
+                    };
+                    crate::share::shared_rows(run, ids, self.peers, true, &mut make)?
+                        .rows
+                        .expect("gathered by every process")
                 };
                 Ok(made.rows.into_iter().map(shot_row).collect())
             };

@@ -100,6 +100,8 @@ pub struct Reproduction {
     pub scaling: crate::scaling::Scaling,
     /// View factors against closed forms and at scale (viewfactors.json).
     pub viewfactors: crate::viewfactors::ViewFactorResults,
+    /// Rows and solves shared among simulated processes (ranks.json).
+    pub ranks: crate::ranks::Ranks,
 }
 
 /// Runs the experiments; `progress(stage, step, of)` as they go.
@@ -125,7 +127,9 @@ pub fn run(
     let radiosity = crate::speedup::run(quick, progress)?;
     let scaling = crate::scaling::run(quick, progress)?;
     let viewfactors = crate::viewfactors::run(quick, progress)?;
+    let ranks = crate::ranks::run(quick, progress)?;
     Ok(Reproduction {
+        ranks,
         radiosity,
         scaling,
         viewfactors,
@@ -298,6 +302,24 @@ impl Reproduction {
         serde_json::to_string_pretty(&r).expect("results serialise") + "\n"
     }
 
+    /// ranks.json: rows and solves shared among simulated processes, against one.
+    pub fn ranks_json(&self, provenance: &Provenance) -> String {
+        #[derive(Serialize)]
+        struct S<'a> {
+            provenance: &'a Provenance,
+            quick: bool,
+            note: &'static str,
+            ranks: &'a crate::ranks::Ranks,
+        }
+        let r = S {
+            provenance,
+            quick: self.quick,
+            note: "Processes simulated by threads of one (rad_pipeline::share::in_threads: the collectives and errors of MPI's ranks, the pipeline code coherad runs under mpirun), oversubscribed on this machine's cores. units: each process's share in work units (an exact hemisphere is 1); balance: the largest share over the mean; identical: rows, or the solution file without its timings, equal to one process's to the bit; seconds: wall time of the whole simulated run.",
+            ranks: &self.ranks,
+        };
+        serde_json::to_string_pretty(&r).expect("results serialise") + "\n"
+    }
+
     /// radiosity.json: the cube's and Cornell box's solutions with both solvers.
     pub fn radiosity_json(&self, provenance: &Provenance) -> String {
         #[derive(Serialize)]
@@ -439,7 +461,38 @@ impl Reproduction {
         self.report_loft(w);
         self.report_scaling(w);
         self.report_viewfactors(w);
+        self.report_ranks(w, p.nproc);
         s
+    }
+
+    /// The simulated larger run: identity with one process and the balance.
+    fn report_ranks(&self, w: &mut String, cores: usize) {
+        let r = &self.ranks;
+        let _ = writeln!(
+            w,
+            "\n## A simulated larger run (ranks.json)\n\nRows of the loft and solves of the Cornell box at {}x{} shared among 2 to {} processes simulated by threads (`rad_pipeline::share::in_threads`, oversubscribed on {} cores; the pipeline code `coherad` runs under `mpirun`), each against one process: rows, or the solution file without its timings, to the bit. Balance: the largest share's work units over the mean.\n",
+            r.resolution[0],
+            r.resolution[1],
+            r.runs.iter().map(|x| x.processes).max().unwrap_or(0),
+            cores
+        );
+        let _ = writeln!(
+            w,
+            "| run | scene | processes | identical | balance | seconds |"
+        );
+        let _ = writeln!(w, "|---|---|---|---|---|---|");
+        for x in &r.runs {
+            let _ = writeln!(
+                w,
+                "| {} | {} | {} | {} | {:.3} | {:.2} |",
+                x.what,
+                x.scene,
+                x.processes,
+                if x.identical { "yes" } else { "**no**" },
+                x.balance,
+                x.seconds
+            );
+        }
     }
 
     /// The view-factor section: closed forms, the cube, the matrices at scale.

@@ -13,6 +13,7 @@ mod enclosure;
 mod matrix;
 mod operator;
 mod pairs;
+mod rowset;
 mod shooting;
 mod solve;
 
@@ -20,13 +21,14 @@ pub use enclosure::{
     Enclosure, EnclosureErrors, EnclosureReport, ErrorQuantiles, SurfaceMatrix, LEAK_TOLERANCE,
     MAX_SCRIPT_F,
 };
-pub use matrix::{FormFactors, Reciprocity};
+pub use matrix::{reciprocal_scaling, FormFactors, Reciprocity};
 pub use operator::Operator;
 pub use pairs::{PairBuilder, PairMatrix};
+pub use rowset::RowSet;
 pub use shooting::{shoot_matrix_free, MatrixFreeConfig, MatrixFreeStats, ShotRow};
 pub use solve::{
-    energy_balance, gauss_seidel, progressive, residual, EnergyBalance, Solution, SolveConfig,
-    SolveReport, Solver, Surfaces,
+    energy_balance, energy_balance_from, gauss_seidel, jacobi, jacobi_with, progressive, residual,
+    residual_from, EnergyBalance, Solution, SolveConfig, SolveReport, Solver, Surfaces,
 };
 
 use rad_core::PatchId;
@@ -80,6 +82,8 @@ pub enum Error {
     SingularExchange { surface: u32 },
     #[error("no reciprocal scaling found after {iterations} iterations (the pattern of the form factors admits no symmetric matrix with these row sums)")]
     NoReciprocalScaling { iterations: usize },
+    #[error("rows held in parts: {reason}")]
+    RowSet { reason: String },
     #[error("solver setting {what} = {value} is invalid ({rule})")]
     BadConfig {
         what: &'static str,

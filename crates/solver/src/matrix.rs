@@ -327,6 +327,25 @@ pub(crate) fn balance(
     tolerance: f64,
     max_iterations: usize,
 ) -> (Vec<f64>, usize, f64) {
+    let product = |x: &[f64]| Ok::<_, std::convert::Infallible>(spmv(x));
+    match reciprocal_scaling(n, product, target, tolerance, max_iterations) {
+        Ok(done) => done,
+        Err(never) => match never {},
+    }
+}
+
+/// The scaling x with `x ∘ (G x) = target`, G given by a product that may fail (one
+/// made by several processes, say, each its rows): what [`FormFactors::reciprocal`]
+/// and [`crate::PairMatrix::reciprocal`] solve, for callers that hold G in parts
+/// ([`crate::RowSet`]). `(x, products made, the largest relative error left)`; every
+/// sum in a fixed order, so the same products give the same x.
+pub fn reciprocal_scaling<E>(
+    n: usize,
+    mut spmv: impl FnMut(&[f64]) -> Result<Vec<f64>, E>,
+    target: &[f64],
+    tolerance: f64,
+    max_iterations: usize,
+) -> Result<(Vec<f64>, usize, f64), E> {
     // Newton's method on x ∘ (G x) = t, each step solved by preconditioned conjugate
     // gradients (Knight & Ruiz's balancing idea): the Jacobian divided by x,
     // diag(Gx / x) + G, is symmetric positive semi-definite. Patches with t = 0 keep
@@ -337,7 +356,7 @@ pub(crate) fn balance(
     let mut iterations = 0;
     let mut worst;
     loop {
-        let gx = spmv(&x);
+        let gx = spmv(&x)?;
         iterations += 1;
         worst = (0..n)
             .filter(|&i| active[i])
@@ -373,7 +392,7 @@ pub(crate) fn balance(
         let mut p = z.clone();
         let mut rz = dot(&res, &z);
         for _ in 0..200 {
-            let gp = spmv(&p);
+            let gp = spmv(&p)?;
             iterations += 1;
             let q: Vec<f64> = (0..n)
                 .map(|i| if active[i] { d[i] * p[i] + gp[i] } else { 0.0 })
@@ -411,7 +430,7 @@ pub(crate) fn balance(
             }
         }
     }
-    (x, iterations, worst)
+    Ok((x, iterations, worst))
 }
 
 pub(crate) fn check_areas(area: &[f64], n: usize) -> Result<(), Error> {

@@ -62,6 +62,9 @@ pub enum Solver {
     GaussSeidel,
     /// Progressive refinement: shoot the patch of largest unshot power.
     Progressive,
+    /// Jacobi on `B = E + ρ F B`: every patch from the last sweep's radiosities, so
+    /// rows held by several processes need only the radiosities shared each sweep.
+    Jacobi,
 }
 
 impl Solver {
@@ -69,6 +72,7 @@ impl Solver {
         match self {
             Solver::GaussSeidel => "gauss-seidel",
             Solver::Progressive => "progressive",
+            Solver::Jacobi => "jacobi",
         }
     }
 }
@@ -140,7 +144,11 @@ impl Solution {
 /// `max_{i,c} |E + ρ F B − B|_{i,c} / max_{i,c} B_{i,c}` (0 if B is zero everywhere and
 /// so is E).
 pub fn residual<M: Operator>(ff: &M, surfaces: &Surfaces, b: &[[f64; 3]]) -> f64 {
-    let h = ff.apply(b);
+    residual_from(surfaces, b, &ff.apply(b))
+}
+
+/// [`residual`] of `b` given its product `h = F b`.
+pub fn residual_from(surfaces: &Surfaces, b: &[[f64; 3]], h: &[[f64; 3]]) -> f64 {
     let mut worst: f64 = 0.0;
     let mut scale: f64 = 0.0;
     for i in 0..b.len() {
@@ -198,6 +206,67 @@ pub fn gauss_seidel<M: Operator>(
             converged: res <= config.tolerance,
         },
     })
+}
+
+/// Jacobi: `B ← E + ρ F B`, every patch from the last sweep's radiosities, until the
+/// true residual is within tolerance. Each sweep's product is the residual's, so the
+/// residual reported is that of the radiosities returned, exactly.
+pub fn jacobi<M: Operator>(
+    ff: &M,
+    surfaces: &Surfaces,
+    config: &SolveConfig,
+) -> Result<Solution, Error> {
+    check(ff, surfaces, config)?;
+    let product = |b: &[[f64; 3]]| Ok::<_, Error>(ff.apply(b));
+    Ok(jacobi_with(surfaces, config, product, &mut |_, _| {})?.0)
+}
+
+/// [`jacobi`] with the product `F b` given (one made by several processes, each its
+/// rows, say), and `progress(sweeps, residual)` after each: the solution and the last
+/// product (`F B` of the radiosities returned, for their energy balance).
+pub fn jacobi_with<E: From<Error>>(
+    surfaces: &Surfaces,
+    config: &SolveConfig,
+    mut product: impl FnMut(&[[f64; 3]]) -> Result<Vec<[f64; 3]>, E>,
+    progress: &mut dyn FnMut(usize, f64),
+) -> Result<(Solution, Vec<[f64; 3]>), E> {
+    config.validate()?;
+    surfaces.validate(surfaces.area.len())?;
+    let mut b = surfaces.emission.clone();
+    let mut iterations = 0;
+    loop {
+        let h = product(&b)?;
+        if h.len() != b.len() {
+            return Err(Error::LengthMismatch {
+                what: "a product",
+                len: h.len(),
+                n_patches: b.len(),
+            }
+            .into());
+        }
+        let res = residual_from(surfaces, &b, &h);
+        progress(iterations, res);
+        if res <= config.tolerance || iterations >= config.max_iterations || !res.is_finite() {
+            let report = SolveReport {
+                solver: Solver::Jacobi,
+                iterations,
+                residual: res,
+                converged: res <= config.tolerance,
+            };
+            let solution = Solution {
+                radiosity: b,
+                ambient: [0.0; 3],
+                report,
+            };
+            return Ok((solution, h));
+        }
+        for (i, bi) in b.iter_mut().enumerate() {
+            for c in 0..3 {
+                bi[c] = surfaces.emission[i][c] + surfaces.reflectance[i][c] * h[i][c];
+            }
+        }
+        iterations += 1;
+    }
 }
 
 /// Progressive refinement: repeatedly the patch `i` of largest unshot power
@@ -304,8 +373,16 @@ pub struct EnergyBalance {
 /// The energy balance of radiosities `b` under `ff`: exact (to the residual) when `ff`
 /// is reciprocal, off by the reciprocity error otherwise.
 pub fn energy_balance<M: Operator>(ff: &M, surfaces: &Surfaces, b: &[[f64; 3]]) -> EnergyBalance {
-    let h = ff.apply(b);
-    let sums = ff.row_sums();
+    energy_balance_from(surfaces, b, &ff.apply(b), &ff.row_sums())
+}
+
+/// [`energy_balance`] of `b` given its product `h = F b` and the row sums of F.
+pub fn energy_balance_from(
+    surfaces: &Surfaces,
+    b: &[[f64; 3]],
+    h: &[[f64; 3]],
+    sums: &[f64],
+) -> EnergyBalance {
     let mut e = EnergyBalance::default();
     for i in 0..b.len() {
         let a = surfaces.area[i];

@@ -20,22 +20,39 @@ fn mpirun(ranks: usize, args: &[&str]) -> Output {
         .expect("mpirun runs (install Open MPI)")
 }
 
-fn formfactors_args<'a>(
-    scene: &'a str,
-    res: &'a str,
-    method: &'a str,
-    out: &'a str,
-) -> Vec<&'a str> {
-    vec![
+/// `args` with `--out out`.
+fn writing<'a>(args: &[&'a str], out: &'a str) -> Vec<&'a str> {
+    let mut all = args.to_vec();
+    all.extend(["--out", out]);
+    all
+}
+
+/// `coherad formfactors scene --resolution res --method exact --out out`.
+fn exact_rows<'a>(scene: &'a str, res: &'a str, out: &'a str) -> Vec<&'a str> {
+    let args = [
         "formfactors",
         scene,
         "--resolution",
         res,
         "--method",
-        method,
-        "--out",
-        out,
-    ]
+        "exact",
+    ];
+    writing(&args, out)
+}
+
+/// One process's run of `args`, writing `out`, which must succeed.
+fn run_alone(args: &[&str], out: &str) {
+    let run = coherad(&writing(args, out));
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{args:?}: {err}");
+}
+
+/// `mpirun -n ranks` of `args`, writing `out`, which must succeed: its standard error.
+fn run_ranks(ranks: usize, args: &[&str], out: &str) -> String {
+    let run = mpirun(ranks, &writing(args, out));
+    let err = String::from_utf8_lossy(&run.stderr).into_owned();
+    assert!(run.status.success(), "{args:?} -n {ranks}: {err}");
+    err
 }
 
 #[test]
@@ -49,20 +66,20 @@ fn ranks_give_one_process_rows_to_the_bit_balanced_by_work() {
         ("cornell.json", "12x48", "estimated", &[3][..]),
     ] {
         let path = bench_scene(scene);
-        let path = path.to_str().unwrap();
+        let args = [
+            "formfactors",
+            path.to_str().unwrap(),
+            "--resolution",
+            res,
+            "--method",
+            method,
+        ];
         let alone = out("alone.json");
-        let one = coherad(&formfactors_args(path, res, method, &alone));
-        assert!(
-            one.status.success(),
-            "{}",
-            String::from_utf8_lossy(&one.stderr)
-        );
+        run_alone(&args, &alone);
         let want = std::fs::read(&alone).unwrap();
         for &n in ranks {
             let shared = out(&format!("ranks{n}.json"));
-            let run = mpirun(n, &formfactors_args(path, res, method, &shared));
-            let err = String::from_utf8_lossy(&run.stderr);
-            assert!(run.status.success(), "{scene} {method} -n {n}: {err}");
+            let err = run_ranks(n, &args, &shared);
             assert!(
                 std::fs::read(&shared).unwrap() == want,
                 "{scene} {method} -n {n}: rows differ"
@@ -114,22 +131,11 @@ fn ranks_give_one_process_view_factors_to_the_byte() {
         let mut args = vec!["viewfactors", s, "--resolution", "12x48"];
         args.extend_from_slice(flags);
         let alone = out("alone");
-        let mut one = args.clone();
-        one.extend(["--out", &alone]);
-        let run = coherad(&one);
-        assert!(
-            run.status.success(),
-            "{}",
-            String::from_utf8_lossy(&run.stderr)
-        );
+        run_alone(&args, &alone);
         let want = std::fs::read(&alone).unwrap();
         for n in [2, 3] {
             let shared = out(&format!("ranks{n}"));
-            let mut many = args.clone();
-            many.extend(["--out", &shared]);
-            let run = mpirun(n, &many);
-            let err = String::from_utf8_lossy(&run.stderr);
-            assert!(run.status.success(), "{flags:?} -n {n}: {err}");
+            run_ranks(n, &args, &shared);
             assert!(
                 std::fs::read(&shared).unwrap() == want,
                 "{flags:?} -n {n}: differs"
@@ -147,8 +153,8 @@ fn a_rank_that_fails_or_dies_ends_the_run_with_no_output() {
     let l = loft.to_str().unwrap();
     // Rank 1 cannot read its scene (two programs of one job: mpirun's `:`).
     let run = two_programs(
-        &formfactors_args(l, "12x48", "exact", o),
-        &formfactors_args("/no/such/scene.json", "12x48", "exact", o),
+        &exact_rows(l, "12x48", o),
+        &exact_rows("/no/such/scene.json", "12x48", o),
     );
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(
@@ -159,10 +165,7 @@ fn a_rank_that_fails_or_dies_ends_the_run_with_no_output() {
     // Ranks started on different runs are refused.
     let cube = bench_scene("cube.json");
     let c = cube.to_str().unwrap();
-    let run = two_programs(
-        &formfactors_args(c, "12x48", "exact", o),
-        &formfactors_args(c, "6x24", "exact", o),
-    );
+    let run = two_programs(&exact_rows(c, "12x48", o), &exact_rows(c, "6x24", o));
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(
         !run.status.success() && err.contains("rank 1 made rows of another run"),
@@ -172,7 +175,7 @@ fn a_rank_that_fails_or_dies_ends_the_run_with_no_output() {
     // Rank 1 killed (SIGKILL) while computing: the launcher ends the job.
     let mut job = Command::new("mpirun")
         .args(["--oversubscribe", "-n", "2", env!("CARGO_BIN_EXE_coherad")])
-        .args(formfactors_args(l, "60x240", "exact", o))
+        .args(exact_rows(l, "60x240", o))
         .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
         .stderr(std::process::Stdio::null())
@@ -184,11 +187,26 @@ fn a_rank_that_fails_or_dies_ends_the_run_with_no_output() {
             rank_process(1, o)
         })
         .expect("rank 1 started");
+    // Past MPI's start-up (a rank killed inside MPI_Init can leave mpirun waiting), and
+    // well before the rows are done (about 9 s here).
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    assert!(
+        job.try_wait().unwrap().is_none(),
+        "the job ended before the kill"
+    );
     Command::new("kill")
         .args(["-9", &victim.to_string()])
         .status()
         .unwrap();
-    assert!(!job.wait().unwrap().success());
+    let ended = (0..1200).find_map(|_| {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        job.try_wait().unwrap()
+    });
+    if ended.is_none() {
+        let _ = job.kill();
+        panic!("mpirun had not ended 60 s after rank 1 was killed");
+    }
+    assert!(!ended.unwrap().success());
     assert!(!out.exists(), "a partial output");
     // (The killed rank's and rank 0's temporaries, if any, are cleared by the next write.)
     let _ = temporaries(dir.path());
@@ -244,6 +262,22 @@ fn ranks_solve_as_one_process_does_stored_and_matrix_free() {
             &["--storage", "stored", "--method", "estimated"][..],
         ),
         ("loft.json", &["--storage", "matrix-free"][..]),
+        // Shared by rows: each rank holds only its rows (and their transposes).
+        (
+            "loft.json",
+            &["--storage", "stored", "--solver", "jacobi"][..],
+        ),
+        (
+            "blob_room.json",
+            &[
+                "--storage",
+                "stored",
+                "--solver",
+                "jacobi",
+                "--method",
+                "estimated",
+            ][..],
+        ),
         ("blob_room.json", &["--storage", "matrix-free"][..]),
         (
             "cornell.json",
@@ -254,22 +288,11 @@ fn ranks_solve_as_one_process_does_stored_and_matrix_free() {
         let mut args = vec!["solve", path.to_str().unwrap(), "--resolution", "12x48"];
         args.extend_from_slice(flags);
         let alone = out("alone.json");
-        let mut one = args.clone();
-        one.extend(["--out", &alone]);
-        let run = coherad(&one);
-        assert!(
-            run.status.success(),
-            "{}",
-            String::from_utf8_lossy(&run.stderr)
-        );
+        run_alone(&args, &alone);
         let want = solution_without_timings(&alone);
         for n in [2, 3] {
             let shared = out(&format!("ranks{n}.json"));
-            let mut many = args.clone();
-            many.extend(["--out", &shared]);
-            let run = mpirun(n, &many);
-            let err = String::from_utf8_lossy(&run.stderr);
-            assert!(run.status.success(), "{scene} {flags:?} -n {n}: {err}");
+            run_ranks(n, &args, &shared);
             // The same radiosities, iterations, residual and energy, to the bit.
             assert!(
                 solution_without_timings(&shared) == want,

@@ -1,4 +1,5 @@
 //! Integration tests of rad-repro: physics invariants on the bench scenes.
 
 mod invariants;
+mod ranks;
 mod viewfactors;

@@ -3,6 +3,7 @@
 mod analytic;
 mod pairs;
 mod props;
+mod rowset;
 mod shooting;
 
 use rad_solver::{FormFactors, Surfaces};

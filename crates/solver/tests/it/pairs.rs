@@ -7,16 +7,21 @@ use rad_solver::{
     gauss_seidel, progressive, Error, FormFactors, Operator, PairBuilder, PairMatrix, SolveConfig,
 };
 
-/// Random rows: each patch sees a random subset (so the pattern is not symmetric),
-/// some entries split in two (a column repeated) and some rows shuffled.
-fn random_rows(n: usize, seed: u64, density: f64) -> Vec<Vec<(u32, f64)>> {
+/// Uniform draws in [0, 1) from `seed` (xorshift).
+pub fn draws(seed: u64) -> impl FnMut() -> f64 {
     let mut state = seed | 1;
-    let mut next = move || {
+    move || {
         state ^= state << 13;
         state ^= state >> 7;
         state ^= state << 17;
         (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    }
+}
+
+/// Random rows: each patch sees a random subset (so the pattern is not symmetric),
+/// some entries split in two (a column repeated) and some rows shuffled.
+pub fn random_rows(n: usize, seed: u64, density: f64) -> Vec<Vec<(u32, f64)>> {
+    let mut next = draws(seed);
     (0..n)
         .map(|i| {
             let mut row = Vec::new();
@@ -50,7 +55,7 @@ fn both(rows: &[Vec<(u32, f64)>]) -> (FormFactors, PairMatrix) {
     (ff, b.finish().unwrap())
 }
 
-fn bits(v: &[[f64; 3]]) -> Vec<[u64; 3]> {
+pub fn bits(v: &[[f64; 3]]) -> Vec<[u64; 3]> {
     v.iter().map(|x| x.map(f64::to_bits)).collect()
 }
 
