@@ -69,6 +69,14 @@ def test_a_python_solve_equals_coherad_solve(tmp_path):
     ref = np.array(json.loads(out.read_text())["radiosity"])
     assert np.array_equal(ref, b)
     assert json.loads(out.read_text())["scene_hash"] == scene.scene_hash
+    # Jacobi (the solve MPI ranks share by rows): the CLI's file to the bit, and
+    # Gauss-Seidel's radiosities within the tolerance.
+    bj, rj = scene.solve((30, 120), solver="jacobi", with_report=True)
+    assert rj["converged"]
+    cli("--quiet", "solve", CORNELL, "--resolution", "30x120", "--solver", "jacobi",
+        "--out", out)
+    assert np.array_equal(np.array(json.loads(out.read_text())["radiosity"]), bj)
+    assert np.abs(bj - b).max() <= 1e-8 * b.max()
 
 
 def test_view_factors_of_the_cube_closed():
@@ -102,7 +110,7 @@ def test_errors_are_exceptions_with_the_clis_messages(tmp_path):
         (lambda: scene.form_factors((6, 24), method="magic"), "method"),
         (lambda: scene.form_factors((6, 24), patches=[600]), "out of range"),
         (lambda: scene.view_factors(by="room"), "by"),
-        (lambda: scene.solve((6, 24), solver="jacobi"), "solver"),
+        (lambda: scene.solve((6, 24), solver="conjugate-gradient"), "solver"),
         # 14,400 patches: over the dense matrix's 10,000 surfaces, refused before any
         # row is made.
         (lambda: coherad.load(ROOT / "bench-scenes" / "loft.json").view_factors(by="patch"),
