@@ -330,8 +330,12 @@ pub fn solve_scene_shared(
     let n = scene.scene.patches().len();
     let storage = match opts.storage {
         Some(s) => s,
-        // (Its rows are shared by rows: a share's size is not what `choose` estimates.)
-        None if opts.solver == Solver::Jacobi => Storage::Stored,
+        // (Its rows are shared by rows: each process's share must fit the limit.)
+        None if opts.solver == Solver::Jacobi => {
+            let (limit, size) = (opts.memory_limit, peers.size());
+            crate::storage::check_by_rows(&scene.scene, hemi, method, limit, size)?;
+            Storage::Stored
+        }
         None => crate::storage::choose(&scene.scene, hemi, method, opts.memory_limit)?,
     };
     if opts.solver == Solver::Jacobi {

@@ -72,13 +72,7 @@ pub fn choose(
     limit: usize,
 ) -> Result<Storage, Error> {
     let n = scene.patches().len();
-    let k = n.min(SAMPLE_ROWS);
-    let sample: Vec<PatchId> = (0..k).map(|s| (s * n / k.max(1)) as PatchId).collect();
-    let exact = RowMethod::Exact {
-        caster: method.caster(),
-    };
-    let rows = crate::rows(scene, hemi, exact, &sample, &|_| {})?.rows;
-    let mean = rows.iter().map(|r| r.entries.len()).sum::<usize>() as f64 / k.max(1) as f64;
+    let mean = mean_entries(scene, hemi, method)?;
     let stored = mean * n as f64 * STORED_BYTES_PER_ENTRY
         + 2.0 * (STREAM_CHUNK as f64) * mean * ROW_BYTES_PER_ENTRY
         + n as f64 * BYTES_PER_PATCH;
@@ -103,6 +97,57 @@ pub fn choose(
         });
     }
     Ok(Storage::MatrixFree)
+}
+
+/// Bytes a row entry takes in a [`rad_solver::RowSet`], all told: 12, times the union
+/// of F's and Fᵀ's patterns over F's (1.075 on the loft at 180 × 720: 78.8 M positions
+/// for 73.3 M entries; 1.1 leaves room for less symmetric patterns).
+const ROW_SET_BYTES_PER_ENTRY: f64 = 12.0 * 1.1;
+
+/// Whether a solve shared by rows (`--solver jacobi`) among `processes` fits `limit`
+/// bytes a process: its share of the rows in a row set, two chunks of rows being made,
+/// a round of transposes in flight both ways, and the per-patch vectors every process
+/// holds (estimated from [`SAMPLE_ROWS`] rows, as [`choose`] does); else an error
+/// saying what would.
+pub fn check_by_rows(
+    scene: &Scene,
+    hemi: &Hemisphere,
+    method: RowMethod,
+    limit: usize,
+    processes: usize,
+) -> Result<(), Error> {
+    let n = scene.patches().len();
+    let mean = mean_entries(scene, hemi, method)?;
+    let share = mean * n as f64 / processes.max(1) as f64;
+    let need = share * ROW_SET_BYTES_PER_ENTRY
+        + 2.0 * (STREAM_CHUNK as f64) * mean * ROW_BYTES_PER_ENTRY
+        + 2.0 * share * 12.0 / 8.0
+        + n as f64 * BYTES_PER_PATCH;
+    if need > limit as f64 {
+        return Err(Error::MemoryLimit {
+            what: format!(
+                "the rows of {n} patches shared by rows among {processes} {} (each its share)",
+                if processes == 1 { "process" } else { "processes" }
+            ),
+            need_mib: mib(need),
+            limit_mib: mib(limit as f64),
+            hint: "raise --memory-limit, share among more processes (mpirun -n), or solve matrix-free (--storage matrix-free)",
+        });
+    }
+    Ok(())
+}
+
+/// Entries a row holds, on average over [`SAMPLE_ROWS`] exact rows spread over the
+/// patches.
+fn mean_entries(scene: &Scene, hemi: &Hemisphere, method: RowMethod) -> Result<f64, Error> {
+    let n = scene.patches().len();
+    let k = n.min(SAMPLE_ROWS);
+    let sample: Vec<PatchId> = (0..k).map(|s| (s * n / k.max(1)) as PatchId).collect();
+    let exact = RowMethod::Exact {
+        caster: method.caster(),
+    };
+    let rows = crate::rows(scene, hemi, exact, &sample, &|_| {})?.rows;
+    Ok(rows.iter().map(|r| r.entries.len()).sum::<usize>() as f64 / k.max(1) as f64)
 }
 
 /// The least matrix-free solving needs: per-patch arrays and one batch of rows.

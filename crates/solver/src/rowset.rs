@@ -328,8 +328,8 @@ impl RowSet {
                 }
             }
         }
-        for k in 0..=rows {
-            self.start[k] += before[k];
+        for (s, b) in self.start.iter_mut().zip(&before) {
+            *s += b;
         }
         Ok(())
     }

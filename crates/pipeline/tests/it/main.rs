@@ -212,4 +212,38 @@ fn memory_limit_chooses_the_storage_and_refuses_what_fits_nothing() {
         let e = run(method, limit).unwrap_err().to_string();
         assert!(e.contains(want) && e.contains("memory limit"), "{e}");
     }
+    // Jacobi, shared by rows: each process's share must fit the limit; more processes
+    // need less each.
+    let jacobi = |limit, processes| {
+        let opts = SolveOptions {
+            solver: Solver::Jacobi,
+            memory_limit: limit,
+            ..SolveOptions::default()
+        };
+        let got = rad_pipeline::share::in_threads(processes, |peers| {
+            rad_pipeline::solve::solve_scene_shared(&scene, &hemi, exact, &opts, &|_| {}, peers)
+                .map(|s| s.map(|(file, _, _)| file.matrix.storage))
+                .map_err(|e| e.to_string())
+        });
+        got.into_iter().next().unwrap()
+    };
+    assert_eq!(jacobi(DEFAULT_MEMORY_LIMIT, 1).unwrap().unwrap(), "stored");
+    let need = |processes| -> u64 {
+        let e = jacobi(1 << 20, processes).unwrap_err();
+        assert!(
+            e.contains(&format!("shared by rows among {processes} process")),
+            "{e}"
+        );
+        let mib = e
+            .split("need about ")
+            .nth(1)
+            .and_then(|t| t.split(' ').next());
+        mib.and_then(|m| m.parse().ok())
+            .unwrap_or_else(|| panic!("{e}"))
+    };
+    let (one, four) = (need(1), need(4));
+    assert!(four < one, "{four} MiB a process of 4, {one} MiB alone");
+    // A limit between the two: too small alone, enough for a quarter each.
+    let between = ((one + four) / 2) << 20;
+    assert!(jacobi(between as usize, 1).is_err() && jacobi(between as usize, 4).is_ok());
 }
