@@ -15,7 +15,7 @@ use rad_core::PatchId;
 use rad_estimator::EstimateStats;
 use rad_hemisphere::Hemisphere;
 use rad_solver::{
-    energy_balance_from, jacobi_with, reciprocal_scaling, Reciprocity, RowSet, Surfaces,
+    energy_balance_from, jacobi_with, median_bin, reciprocal_scaling, Reciprocity, RowSet, Surfaces,
 };
 use std::time::Instant;
 
@@ -124,37 +124,28 @@ fn held_rows(
     )
     .map(|stats| (set, stats));
     let fingerprint = share::run_fingerprint(scene.hash, solve_key(hemi, method, opts).as_bytes());
+    // The part: no rows, only their counts.
     let part = match &made {
-        Ok((_, stats)) => {
-            let mut b = fingerprint.to_le_bytes().to_vec();
-            let counts = Rows {
+        Ok((_, stats)) => Ok(share::encode_part(
+            fingerprint,
+            &Rows {
                 method,
                 rows: Vec::new(),
                 sources: Vec::new(),
                 stats: *stats,
-            };
-            share::encode_rows_into(&counts, &mut b);
-            Ok(b)
-        }
+            },
+        )),
         Err(e) => Err(e.to_string()),
     };
-    let parts = match (peers.all_gather(part), made) {
+    let (parts, (mut set, _)) = match (peers.all_gather(part), made) {
         (Ok(parts), Ok(made)) => (parts, made),
         // One's own error as it is; another's, as the peers give it.
         (_, Err(e)) if peers.size() == 1 => return Err(e),
         (Err(e), _) => return Err(Error::Peers(e)),
         (Ok(_), Err(e)) => return Err(e),
     };
-    let (parts, (mut set, _)) = parts;
     let mut stats = EstimateStats::default();
-    for (r, p) in parts.iter().enumerate() {
-        if p.get(..8) != Some(&fingerprint.to_le_bytes()[..]) {
-            return Err(Error::Peers(format!(
-                "rank {r} made rows of another run (another scene file, resolution, method or options): start every rank with the same command"
-            )));
-        }
-        let counts = share::decode_rows(&p[8..], method)
-            .map_err(|e| Error::Peers(format!("rank {r}: {e}")))?;
+    for counts in share::decode_parts(parts, fingerprint, method)? {
         stats.add(&counts.stats);
     }
     let mut owner = vec![0u32; n];
@@ -304,16 +295,9 @@ impl Vectors<'_> {
                     pair[1];
             }
         }
-        let total: u64 = count.iter().sum();
-        if total == 0 {
+        let Some((bin, k)) = median_bin(&count) else {
             return Ok((0.0, 0.0));
-        }
-        let rank = total / 2;
-        let (mut bin, mut below) = (0, 0);
-        while below + count[bin] <= rank {
-            below += count[bin];
-            bin += 1;
-        }
+        };
         let mut inside = Vec::new();
         set.for_each_asymmetry(area, &mut |a| {
             if (a.to_bits() >> SHIFT) as usize == bin {
@@ -326,7 +310,6 @@ impl Vectors<'_> {
             .flat_map(|p| p.chunks_exact(8))
             .map(|w| f64::from_le_bytes(w.try_into().unwrap()))
             .collect();
-        let k = (rank - below) as usize;
         if k >= values.len() {
             return Err(Error::Peers("the median's bin came back short".into()));
         }

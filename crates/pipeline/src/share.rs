@@ -296,6 +296,35 @@ pub trait Peers {
     fn exchange(&self, parts: Result<Vec<Vec<u8>>, String>) -> Result<Vec<Vec<u8>>, String>;
 }
 
+/// A process's part: its run's fingerprint, then its rows ([`encode_rows`]).
+pub(crate) fn encode_part(fingerprint: u64, rows: &Rows) -> Vec<u8> {
+    let mut bytes = fingerprint.to_le_bytes().to_vec();
+    encode_rows_into(rows, &mut bytes);
+    bytes
+}
+
+/// Every process's [`encode_part`] read back, in rank order: an error naming the first
+/// process whose fingerprint is not `fingerprint` (another run) or whose rows are cut.
+/// Each part's bytes are dropped as soon as they are read.
+pub(crate) fn decode_parts(
+    parts: Vec<Vec<u8>>,
+    fingerprint: u64,
+    method: RowMethod,
+) -> Result<Vec<Rows>, Error> {
+    let mut made = Vec::with_capacity(parts.len());
+    for (r, p) in parts.into_iter().enumerate() {
+        if p.get(..8) != Some(&fingerprint.to_le_bytes()[..]) {
+            return Err(Error::Peers(format!(
+                "rank {r} made rows of another run (another scene file, resolution, method, options or patch list): start every rank with the same command"
+            )));
+        }
+        made.push(
+            decode_rows(&p[8..], method).map_err(|e| Error::Peers(format!("rank {r}: {e}")))?,
+        );
+    }
+    Ok(made)
+}
+
 /// One process alone.
 pub struct Alone;
 
@@ -518,13 +547,9 @@ pub fn shared_rows(
     }
     let mut key = what.to_vec();
     key.extend(patches.iter().flat_map(|p| p.to_le_bytes()));
-    let fingerprint = run_fingerprint(scene_hash, &key).to_le_bytes();
+    let fingerprint = run_fingerprint(scene_hash, &key);
     let part = make(&shares[peers.rank()].patches)
-        .map(|r| {
-            let mut bytes = fingerprint.to_vec();
-            encode_rows_into(&r, &mut bytes);
-            bytes
-        })
+        .map(|r| encode_part(fingerprint, &r))
         .map_err(|e| e.to_string());
     let parts = if everyone {
         Some(peers.all_gather(part))
@@ -534,19 +559,7 @@ pub fn shared_rows(
     let Some(parts) = parts else {
         return Ok(SharedRows { rows: None, shares });
     };
-    let parts = parts.map_err(Error::Peers)?;
-    let mut made = Vec::with_capacity(parts.len());
-    // (Each part's bytes dropped as soon as it is read.)
-    for (r, p) in parts.into_iter().enumerate() {
-        if p.get(..8) != Some(&fingerprint[..]) {
-            return Err(Error::Peers(format!(
-                "rank {r} made rows of another run (another scene file, resolution, method, options or patch list): start every rank with the same command"
-            )));
-        }
-        made.push(
-            decode_rows(&p[8..], method).map_err(|e| Error::Peers(format!("rank {r}: {e}")))?,
-        );
-    }
+    let made = decode_parts(parts.map_err(Error::Peers)?, fingerprint, method)?;
     let rows = join_rows(method, patches, made)?;
     Ok(SharedRows {
         rows: Some(rows),

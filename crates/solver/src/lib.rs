@@ -23,7 +23,7 @@ pub use enclosure::{
 };
 pub use matrix::{reciprocal_scaling, FormFactors, Reciprocity};
 pub use operator::Operator;
-pub use pairs::{PairBuilder, PairMatrix};
+pub use pairs::{median_bin, PairBuilder, PairMatrix};
 pub use rowset::RowSet;
 pub use shooting::{shoot_matrix_free, MatrixFreeConfig, MatrixFreeStats, ShotRow};
 pub use solve::{

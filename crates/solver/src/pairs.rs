@@ -11,6 +11,24 @@ use rad_core::PatchId;
 use rayon::prelude::*;
 use std::sync::{Arc, OnceLock};
 
+/// Where the median (the upper one of an even count) of values counted in a histogram
+/// of their leading bits lies: its bin and its place among that bin's values, or `None`
+/// when nothing was counted. The median of the reciprocity reports, exactly, without
+/// holding every value ([`PairMatrix::reciprocal`], and rows held in parts).
+pub fn median_bin(count: &[u64]) -> Option<(usize, usize)> {
+    let total: u64 = count.iter().sum();
+    if total == 0 {
+        return None;
+    }
+    let rank = total / 2;
+    let (mut bin, mut below) = (0, 0);
+    while below + count[bin] <= rank {
+        below += count[bin];
+        bin += 1;
+    }
+    Some((bin, (rank - below) as usize))
+}
+
 /// Row blocks of the reciprocal scaling's parallel products: fixed, so that the sums
 /// (each block's, then the blocks' in order) do not depend on the thread count.
 const PRODUCT_BLOCKS: usize = 16;
@@ -655,16 +673,9 @@ impl PairMatrix {
                     (a, ma.max(mb))
                 },
             );
-        let total: u64 = count.iter().sum();
-        if total == 0 {
+        let Some((bin, k)) = median_bin(&count) else {
             return (0.0, 0.0);
-        }
-        let rank = total / 2;
-        let (mut bin, mut below) = (0, 0);
-        while below + count[bin] <= rank {
-            below += count[bin];
-            bin += 1;
-        }
+        };
         let mut inside = Vec::with_capacity(count[bin] as usize);
         for i in 0..n {
             each(i, &mut |v| {
@@ -673,7 +684,6 @@ impl PairMatrix {
                 }
             });
         }
-        let k = (rank - below) as usize;
         let (_, median, _) = inside.select_nth_unstable_by(k, f64::total_cmp);
         (max, *median)
     }

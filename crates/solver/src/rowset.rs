@@ -380,8 +380,8 @@ impl RowSet {
             for p in self.start[k]..self.start[k + 1] {
                 let j = self.column[p] as usize;
                 if j > i {
-                    let a = area[i] * self.value[p] as f64 * 1.0;
-                    let b = area[j] * self.other[p] as f64 * 1.0;
+                    let a = area[i] * self.value[p] as f64;
+                    let b = area[j] * self.other[p] as f64;
                     if a.min(b) >= 1e-4 * area[i].min(area[j]) {
                         f((a - b).abs() / a.max(b));
                     }
