@@ -57,6 +57,7 @@ pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Resul
     write("scaling.json", r.scaling_json(&provenance))?;
     write("viewfactors.json", r.viewfactors_json(&provenance))?;
     write("ranks.json", r.ranks_json(&provenance))?;
+    write("meshes.json", r.meshes_json(&provenance))?;
     let plot = crate::plot::scaling_png(&r.scaling)?;
     let path = out.join("scaling.png");
     write_atomic(&path, |w| w.write_all(&plot))

@@ -4,7 +4,9 @@
 //! (every STRIDE-th window, whole).
 
 use rad_accel::{VoxelGrid, VoxelGridConfig};
-use rad_estimator::{estimate_rows, windows, EstimatorConfig, HoleFill, Mode, Reprojection};
+use rad_estimator::{
+    estimate_rows, windows, EstimatorConfig, HoleFill, Mode, Reprojection, Schedule,
+};
 use rad_geometry::scenes::{cube, loft};
 use rad_geometry::Scene;
 use rad_hemisphere::{Hemisphere, HemisphereConfig};
@@ -38,7 +40,17 @@ fn main() {
             guess_stride: std::env::var("GUESS").map_or(3, |s| s.parse().unwrap()),
         };
         let (_, s) = pool
-            .install(|| estimate_rows(&scene, &grid, &hemi, &config, &patches, &|_| {}))
+            .install(|| {
+                estimate_rows(
+                    &scene,
+                    &grid,
+                    &hemi,
+                    &config,
+                    &Schedule::of(&scene),
+                    &patches,
+                    &|_| {},
+                )
+            })
             .unwrap();
         let exact = s.exact_seconds / s.exact as f64;
         let est = s.estimate_seconds / (s.estimated + s.fallback_exact) as f64;

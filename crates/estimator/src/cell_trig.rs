@@ -16,6 +16,8 @@ pub(crate) struct CellTrig {
     pub st: Vec<f32>,
     pub ct: Vec<f32>,
     pub phi: Vec<f32>,
+    /// φ by sector in f64 (to turn the source points into another polygon's frame).
+    pub phi64: Vec<f64>,
     pub sp: Vec<f32>,
     pub cp: Vec<f32>,
     /// cos² of ring edges: ring k holds cos²θ in (cos2_edge[k + 1], cos2_edge[k]].
@@ -26,6 +28,8 @@ pub(crate) struct CellTrig {
     pub phi_edge: Vec<[f32; 2]>,
     pub inv_d_theta: f32,
     pub inv_d_phi: f32,
+    /// Δφ of this grid, in f64.
+    pub d_phi: f64,
     pub shift: f32,
     pub n_theta: usize,
     pub n_phi: usize,
@@ -85,8 +89,10 @@ impl CellTrig {
                 .collect(),
             theta: theta.iter().map(|&x| x as f32).collect(),
             phi: phi.iter().map(|&x| x as f32).collect(),
+            phi64: phi,
             inv_d_theta: (1.0 / d_theta) as f32,
             inv_d_phi: (1.0 / d_phi) as f32,
+            d_phi,
             shift: shift as f32,
             n_theta,
             n_phi,

@@ -5,7 +5,7 @@ use crate::config::{EstimatorConfig, Mode};
 use crate::estimator::Estimator;
 use crate::faithful::Estimate;
 use crate::improved::{ImprovedEstimate, Outcome};
-use crate::schedule::{windows, Window};
+use crate::schedule::{Schedule, Window};
 use crate::source::SourceHemisphere;
 use crate::Error;
 use rad_core::PatchId;
@@ -66,20 +66,29 @@ impl EstimateStats {
     }
 }
 
-/// Rows of `patches` by the window schedule: the exact hemisphere of each window's centre
-/// (with boundary lists if configured) and estimates of the others. Windows run in
-/// parallel; the result does not depend on the thread count. `progress(n)` after each
-/// window, with the number of rows done so far.
+/// Rows of `patches` by the window schedule `schedule` (of `scene`: [`Schedule::of`]):
+/// the exact hemisphere of each window's centre (with boundary lists if configured) and
+/// estimates of the others. Windows run in parallel; the result does not depend on the
+/// thread count, nor on which other patches are asked for (a window is made whole for
+/// any of its patches). `progress(n)` after each window, with the number of rows done
+/// so far.
 pub fn estimate_rows<C: Caster>(
     scene: &Scene,
     caster: &C,
     hemi: &Hemisphere,
     config: &EstimatorConfig,
+    schedule: &Schedule,
     patches: &[PatchId],
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<(Vec<EstimatedRow>, EstimateStats), Error> {
     config.validate()?;
     let n_patches = scene.patches().len();
+    if schedule.n_patches() != n_patches {
+        return Err(Error::ScheduleMismatch {
+            schedule: schedule.n_patches(),
+            scene: n_patches,
+        });
+    }
     if let Some(&bad) = patches.iter().find(|&&p| p as usize >= n_patches) {
         return Err(rad_hemisphere::Error::PatchOutOfRange {
             patch: bad as u64,
@@ -88,10 +97,10 @@ pub fn estimate_rows<C: Caster>(
         .into());
     }
     let wanted: HashSet<PatchId> = patches.iter().copied().collect();
-    let todo: Vec<_> = windows(scene)
-        .into_iter()
-        .filter(|w| wanted.contains(&w.centre) || w.estimated.iter().any(|p| wanted.contains(p)))
-        .collect();
+    let mut which: Vec<usize> = patches.iter().map(|&p| schedule.window_of(p)).collect();
+    which.sort_unstable();
+    which.dedup();
+    let todo: Vec<&Window> = which.iter().map(|&k| &schedule.windows()[k]).collect();
     let run = Run {
         scene,
         caster,

@@ -5,11 +5,11 @@ use crate::config::EstimatorConfig;
 use crate::estimator::{motion, with_thread_buffer, Estimator};
 use crate::holes::fill_holes_with;
 use crate::source::SourceHemisphere;
-use crate::splat::{splat, Points, Splat};
+use crate::splat::{splat, Points, Splat, Turned};
 use crate::zbuffer::ZBuffer;
 use rad_core::{Isa, PatchId};
 use rad_geometry::Scene;
-use rad_hemisphere::ItemBuffer;
+use rad_hemisphere::{ItemBuffer, Viewpoint};
 
 /// An estimated hemisphere: what each cell of H2 sees, with the holes that were filled.
 #[derive(Clone, Debug, Default)]
@@ -27,7 +27,8 @@ thread_local! {
 
 impl Estimator<'_> {
     /// Estimates H2 at patch `to` from `src`, the report's way (no rays), into `out`
-    /// (reusing its buffers).
+    /// (reusing its buffers). `to` is on `src`'s polygon, or on one whose normal points
+    /// the same way ([`crate::frame_turn`]).
     pub fn faithful(
         &self,
         scene: &Scene,
@@ -36,7 +37,20 @@ impl Estimator<'_> {
         config: &EstimatorConfig,
         out: &mut Estimate,
     ) {
-        let m = motion(scene, src.patch(), to);
+        self.faithful_at(scene, src, Viewpoint::of_patch(scene, to), config, out)
+    }
+
+    /// [`Estimator::faithful`] at any point of a polygon (in its frame).
+    pub fn faithful_at(
+        &self,
+        scene: &Scene,
+        src: &SourceHemisphere,
+        to: Viewpoint,
+        config: &EstimatorConfig,
+        out: &mut Estimate,
+    ) {
+        let (m, alpha) = motion(scene, src.viewpoint(scene), to);
+        let turned = (alpha != 0.0).then(|| Turned::new(&self.trig, alpha));
         let points = Points {
             dist: &src.items().dist,
             values: &src.items().patch,
@@ -52,6 +66,7 @@ impl Estimator<'_> {
                 trig: t,
                 src,
                 m: &m,
+                turned: turned.as_ref(),
                 config,
                 rough: false,
                 points,
@@ -59,12 +74,19 @@ impl Estimator<'_> {
             splat(job, |id| id, ids, dist, z, &mut Vec::new());
         };
         with_thread_buffer(&Z, splat_into);
+        // H1's cell in the direction of H2's cell c (the nearest whole sector turn).
+        let n_phi = self.hemi.n_phi();
+        let k = (alpha / self.hemi.d_phi()).round() as i64;
+        let h1_cell = |c: usize| {
+            let (i, l) = (c / n_phi, (c % n_phi) as i64);
+            i * n_phi + (l - k).rem_euclid(n_phi as i64) as usize
+        };
         let (holes, hole_ff) = fill_holes_with(
             Isa::detect(),
             self.hemi,
             &mut out.items.patch,
             config.fill,
-            |c| src.items().patch[c],
+            |c| src.items().patch[h1_cell(c)],
         );
         out.holes = holes;
         out.hole_ff = hole_ff;

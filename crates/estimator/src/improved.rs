@@ -6,11 +6,12 @@ use crate::config::EstimatorConfig;
 use crate::estimator::{motion, with_thread_buffer, Estimator};
 use crate::holes::{fill_runs, maximal_runs};
 use crate::source::SourceHemisphere;
-use crate::splat::{splat, Points, Splat};
+use crate::splat::{splat, Points, Splat, Turned};
 use crate::zbuffer::ZBuffer;
 use rad_core::{Hit, PatchId, PolygonId, BACK, ESCAPED, HOLE, NO_POLYGON};
 use rad_geometry::Scene;
-use rad_hemisphere::{Caster, Hemisphere, ItemBuffer, NearestHits};
+use rad_geometry::{Located, OriginTerms};
+use rad_hemisphere::{Caster, Hemisphere, ItemBuffer, NearestHits, Viewpoint};
 
 /// What became of an improved estimate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -55,7 +56,12 @@ struct Work {
     /// [0, N_φ), end sector, at most first + N_φ).
     runs: Vec<(u64, u32)>,
     ring_runs: Vec<usize>,
-    terms_of: Vec<rad_geometry::OriginTerms>,
+    terms: LazyTerms,
+    /// Spans of cells guessed a facet of several polygons: (facet, first cell, end),
+    /// and a span's located points.
+    facet_spans: Vec<(u32, u32, u32)>,
+    located: Vec<Located>,
+    facet_cells: rad_geometry::LocateScratch,
     real: Vec<usize>,
     dirs: Vec<glam::Vec3>,
     cast: Vec<Option<Hit>>,
@@ -63,6 +69,50 @@ struct Work {
 
 thread_local! {
     static WORK: std::cell::RefCell<Work> = std::cell::RefCell::new(Work::default());
+}
+
+/// Polygons' terms for an estimate's origin, made as polygons are first tested (a mesh's
+/// estimate tests a few of its polygons): `terms_of[g]` is this estimate's where
+/// `made[g] == estimate`.
+#[derive(Default)]
+struct LazyTerms {
+    terms_of: Vec<rad_geometry::OriginTerms>,
+    made: Vec<u32>,
+    estimate: u32,
+    origin: glam::Vec3,
+}
+
+impl LazyTerms {
+    /// Starts an estimate from `o` in a scene of `n` polygons.
+    fn begin(&mut self, n: usize, o: glam::Vec3) {
+        if self.made.len() != n || self.estimate == u32::MAX {
+            self.made.clear();
+            self.made.resize(n, 0);
+            self.terms_of
+                .resize(n, rad_geometry::OriginTerms::default());
+            self.estimate = 0;
+        }
+        self.estimate += 1;
+        self.origin = o;
+    }
+
+    /// Polygon `g`'s terms ([`rad_geometry::Polygon::terms_at`] the origin).
+    #[inline]
+    fn of(&mut self, polygons: &[rad_geometry::Polygon], g: PolygonId) -> &OriginTerms {
+        let g = g as usize;
+        if self.made[g] != self.estimate {
+            self.made[g] = self.estimate;
+            self.terms_of[g] = polygons[g].terms_at(self.origin);
+        }
+        &self.terms_of[g]
+    }
+
+    /// Polygon `g`'s terms, which must have been made this estimate.
+    #[inline]
+    fn made(&self, g: PolygonId) -> &OriginTerms {
+        debug_assert_eq!(self.made[g as usize], self.estimate, "terms made");
+        &self.terms_of[g as usize]
+    }
 }
 
 impl Estimator<'_> {
@@ -82,11 +132,29 @@ impl Estimator<'_> {
         scratch: &mut C::Scratch,
         out: &mut ImprovedEstimate,
     ) -> Outcome {
+        let at = Viewpoint::of_patch(scene, to);
+        self.improved_at(scene, caster, src, at, config, scratch, out)
+    }
+
+    /// [`Estimator::improved`] at any point of a polygon (in its frame): `to` is on
+    /// `src`'s polygon, or on one whose normal points the same way
+    /// ([`crate::frame_turn`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn improved_at<C: Caster>(
+        &self,
+        scene: &Scene,
+        caster: &C,
+        src: &SourceHemisphere,
+        to: Viewpoint,
+        config: &EstimatorConfig,
+        scratch: &mut C::Scratch,
+        out: &mut ImprovedEstimate,
+    ) -> Outcome {
         let outcome = with_thread_buffer(&WORK, |work| {
             self.improved_with(scene, caster, src, to, config, scratch, work, out)
         });
         if outcome == Outcome::CastExactly {
-            caster.item_buffer(scene, self.hemi, to, scratch, &mut out.items);
+            caster.item_buffer_at(scene, self.hemi, to, scratch, &mut out.items);
         }
         outcome
     }
@@ -97,20 +165,21 @@ impl Estimator<'_> {
         scene: &Scene,
         caster: &C,
         src: &SourceHemisphere,
-        to: PatchId,
+        to: Viewpoint,
         config: &EstimatorConfig,
         scratch: &mut C::Scratch,
         w: &mut Work,
         out: &mut ImprovedEstimate,
     ) -> Outcome {
-        let target = &scene.patches()[to as usize];
-        let (own, o) = (target.polygon, target.center);
+        let (own, o) = (to.polygon, to.point);
         // The guess grid: the hemisphere's, or coarser (see `guess_stride`).
         let trig = self.trig_strided(config.guess_stride as usize);
         let stride = trig.stride;
         // 1. Splat polygons (z-buffered); 2. runs of guesses ring by ring.
-        let ring_values = self.splat_guesses(scene, src, to, config, trig, w);
-        out.holes = w.guess_runs(ring_values, own, trig.n_theta, trig.n_phi) * stride * stride;
+        let (ring_values, turn) = self.splat_guesses(scene, src, to, config, trig, w);
+        let own_facet = scene.facets().facet_of(own);
+        out.holes =
+            w.guess_runs(ring_values, turn, own_facet, trig.n_theta, trig.n_phi) * stride * stride;
         // 3. Resolve each cell against the guesses around it.
         out.tests = w.resolve(scene, self.hemi, own, o, trig);
         // 4. The nearest hit if it is a front one (runs of cells with one polygon looked
@@ -123,8 +192,17 @@ impl Estimator<'_> {
         dist.resize(n_cells, f32::INFINITY);
         let real = &mut w.real;
         real.clear();
-        let terms_of = &w.terms_of;
-        let front = |p: u32| terms_of[p as usize].num < 0.0;
+        // (A polygon of a facet of several may have been taken without its terms: its
+        // facet's plane says which side the origin is on.)
+        let (terms, facets) = (&w.terms, scene.facets());
+        let front = |p: u32| {
+            let f = facets.facet_of(p);
+            if facets.is_several(f) {
+                facets.plane_num(f, o) < 0.0
+            } else {
+                terms.made(p).num < 0.0
+            }
+        };
         w.hits.items(polygons, front, patch, dist, |cells, _, _| {
             real.extend(cells)
         });
@@ -149,7 +227,8 @@ impl Estimator<'_> {
 
     /// Step 1: splats H1's polygons onto the guess grid `trig` into `w.guess`
     /// (z-buffered; coarse grids' other polygons into `w.extras`, by ring); returns the
-    /// polygons of the points splatted, by guess cell. Guesses need not be exact: a cell
+    /// polygons of the points splatted, by guess cell, and the turn of `to`'s frame from
+    /// the source's in whole sectors of the guess grid. Guesses need not be exact: a cell
     /// tests its neighbours' guesses too, so the near points' cells come from the
     /// polynomial angles without edge corrections (off by one cell within about 1e-6
     /// rad of an edge).
@@ -157,14 +236,15 @@ impl Estimator<'_> {
         &self,
         scene: &Scene,
         src: &'s SourceHemisphere,
-        to: PatchId,
+        to: Viewpoint,
         config: &EstimatorConfig,
         trig: &CellTrig,
         w: &mut Work,
-    ) -> &'s [PolygonId] {
+    ) -> (&'s [PolygonId], i64) {
         let hemi = self.hemi;
-        let m = motion(scene, src.patch(), to);
-        let values = src.polygons(scene);
+        let (m, alpha) = motion(scene, src.viewpoint(scene), to);
+        let turned = (alpha != 0.0).then(|| Turned::new(trig, alpha));
+        let values = src.facets(scene);
         let points = if trig.stride == 1 {
             Points {
                 dist: &src.items().dist,
@@ -177,7 +257,7 @@ impl Estimator<'_> {
             let c = src.coarse(scene, hemi, trig.stride);
             Points {
                 dist: &c.dist,
-                values: &c.polygons,
+                values: &c.facets,
                 cells: &c.cells,
                 extras: &c.extras,
                 ring_max: &c.ring_max,
@@ -188,13 +268,14 @@ impl Estimator<'_> {
             trig,
             src,
             m: &m,
+            turned: turned.as_ref(),
             config,
             rough: true,
             points,
         };
         splat(
             job,
-            |id| SourceHemisphere::polygon_of(scene, id),
+            |id| SourceHemisphere::facet_of(scene, id),
             &mut w.guess,
             None,
             &mut w.zbuf,
@@ -202,7 +283,7 @@ impl Estimator<'_> {
         );
         // Extra guesses (coarse grids): by ring.
         w.extras.sort_unstable();
-        ring_values
+        (ring_values, (alpha / trig.d_phi).round() as i64)
     }
 }
 
@@ -210,12 +291,13 @@ impl Work {
     /// Step 2: the runs of usable guesses (not `own`, not a hole, not nothing) ring by
     /// ring of the guess grid (`n_theta` × `n_phi`), holes filled as
     /// `HoleFill::RingNeighbour` fills them (each hole takes the nearer written cell of
-    /// its ring, the lower φ on ties; H1's polygon, `ring_values`, where the whole ring
-    /// is a hole), grown by a cell each way, into `runs` and `ring_runs`; returns the
-    /// number of guess cells that were holes.
+    /// its ring, the lower φ on ties; H1's polygon, `ring_values`, turned by `turn`
+    /// sectors, where the whole ring is a hole), grown by a cell each way, into `runs`
+    /// and `ring_runs`; returns the number of guess cells that were holes.
     fn guess_runs(
         &mut self,
         ring_values: &[PolygonId],
+        turn: i64,
         own: PolygonId,
         n_theta: usize,
         n_phi: usize,
@@ -250,8 +332,12 @@ impl Work {
             if n_holes == n {
                 // H1's polygons of this ring's points.
                 maximal_runs(&ring_values[i * n_phi..(i + 1) * n_phi], &mut w.raw);
-                w.runs
-                    .extend(w.raw.iter().filter(|r| usable(r.0)).map(|&r| span(r)));
+                w.runs.extend(
+                    w.raw
+                        .iter()
+                        .filter(|r| usable(r.0))
+                        .map(|&(g, a, b)| span((g, a + turn, b + turn))),
+                );
             } else if n_holes == 0 {
                 w.runs
                     .extend(w.raw.iter().filter(|r| usable(r.0)).map(|&r| span(r)));
@@ -282,12 +368,17 @@ impl Work {
     }
 
     /// Step 3: resolves each cell of `hemi` from `o` (on polygon `own`) with its own
-    /// ray, against the polygons guessed for its guess cell (of `trig`) and that cell's
-    /// 8 neighbours: polygon by polygon over spans of a ring (vectorised, the voxel
-    /// grid's arithmetic), each polygon tested on the cells it is guessed for, grown by
-    /// one guess cell each way (so on every cell that has it among its 3 × 3 guesses),
-    /// in increasing id order so that ties go to the lower id, as in the grid. Every
-    /// polygon's terms for this origin are computed once. Returns the tests made.
+    /// ray, against the facets guessed for its guess cell (of `trig`) and that cell's
+    /// 8 neighbours: facet by facet over spans of a ring, each tested on the cells it
+    /// is guessed for, grown by one guess cell each way (so on every cell that has it
+    /// among its 3 × 3 guesses). A facet of one polygon is that polygon's test
+    /// (vectorised, the voxel grid's arithmetic), in increasing id order so that ties go
+    /// to the lower id, as in the grid; a facet of several (a mesh's flat piece) gives
+    /// each cell the polygon that holds its ray's point in the facet's plane
+    /// ([`rad_geometry::Facets::locate_span`]: at the plane's distance where the point
+    /// is well inside one, by each candidate's own test near an edge), ties then going to
+    /// the lower id whatever the order. Each polygon's terms for this origin are made
+    /// once, when first needed. Returns the tests made.
     fn resolve(
         &mut self,
         scene: &Scene,
@@ -299,11 +390,16 @@ impl Work {
         let w = self;
         let polygons = scene.polygons();
         let (n_theta, stride, fine_n_phi) = (trig.n_theta, trig.stride, hemi.n_phi());
-        w.terms_of.clear();
-        w.terms_of.extend(polygons.iter().map(|p| p.terms_at(o)));
+        w.terms.begin(polygons.len(), o);
+        // Guesses are facets ([`rad_geometry::Facets`]); where some facet holds several
+        // polygons, tests are not made in polygon order, so ties go to the lower id
+        // whatever the order (as the grid's rule has it).
+        let facets = scene.facets();
+        let any_order = facets.len() < polygons.len();
         let hits = &mut w.hits;
         hits.begin(hemi, scene, own);
         let tests_before = hits.tests;
+        w.facet_spans.clear();
         for i in 0..n_theta {
             // The spans of rings i − 1, i and i + 1, merged in (polygon, first) order.
             let rings = [i.saturating_sub(1), i, (i + 1).min(n_theta - 1)];
@@ -336,18 +432,58 @@ impl Work {
                     b = b.max(b2);
                     cur = next();
                 }
-                let (poly, terms) = (&polygons[g as usize], &w.terms_of[g as usize]);
                 let (a, b, n) = (stride * a, stride * b as usize, fine_n_phi);
+                let members = facets.polygons(g);
                 for ring in fine_rings.clone().map(|r| r * n) {
-                    if b - a >= n {
-                        hits.test(poly, g, terms, ring..ring + n);
+                    let pieces = if b - a >= n {
+                        [ring..ring + n, 0..0]
                     } else if b <= n {
-                        hits.test(poly, g, terms, ring + a..ring + b);
+                        [ring + a..ring + b, 0..0]
                     } else {
                         // Wrapping round: two pieces.
-                        hits.test(poly, g, terms, ring + a..ring + n);
-                        hits.test(poly, g, terms, ring..ring + (b - n));
+                        [ring + a..ring + n, ring..ring + (b - n)]
+                    };
+                    for cells in pieces.into_iter().filter(|r| !r.is_empty()) {
+                        if let &[p] = members {
+                            let (poly, terms) = (&polygons[p as usize], w.terms.of(polygons, p));
+                            if any_order {
+                                hits.test_any_order(poly, p, terms, cells);
+                            } else {
+                                hits.test(poly, p, terms, cells);
+                            }
+                        } else {
+                            // A facet of several polygons: later, facet by facet.
+                            w.facet_spans
+                                .push((g, cells.start as u32, cells.end as u32));
+                        }
                     }
+                }
+            }
+        }
+        // The facets of several polygons, each facet's spans together (its grid and
+        // polygons stay in cache): each cell's ray tests the polygons that hold its
+        // point in the facet's plane, the last one found first (neighbouring cells
+        // often see one polygon).
+        w.facet_spans.sort_unstable();
+        for &(g, a, b) in &w.facet_spans {
+            let (a, b) = (a as usize, b as usize);
+            facets.locate_span(
+                g,
+                o,
+                hits.directions_of(a..b),
+                &mut w.located,
+                &mut w.facet_cells,
+            );
+            let front = facets.plane_num(g, o) < 0.0;
+            for (c, &l) in (a..b).zip(&w.located) {
+                match l {
+                    Located::Outside => {}
+                    Located::Clear(p, t) if front && p != own => hits.offer(c, p, t, 0.0, 0.0),
+                    _ => facets.for_each_holding(g, o, hits.direction(c), |p| {
+                        if p != own {
+                            hits.test_cell(&polygons[p as usize], p, w.terms.of(polygons, p), c);
+                        }
+                    }),
                 }
             }
         }

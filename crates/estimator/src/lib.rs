@@ -8,7 +8,8 @@
 //! - [`Estimator::faithful`]: the report's method: z-buffered splats, then hole filling.
 //! - [`Estimator::improved`]: splat polygons, then resolve each cell with its own ray
 //!   against the polygons guessed for it and its 8 neighbours.
-//! - [`windows`]: the 3 × 3 window schedule of §3.6; [`estimate_rows`] runs it all.
+//! - [`windows`], [`Schedule`]: the 3 × 3 window schedule of §3.6 (and windows across a
+//!   mesh's one-patch polygons of one plane); [`estimate_rows`] runs it all.
 
 mod cell_trig;
 mod config;
@@ -25,11 +26,11 @@ mod zbuffer;
 
 pub use config::{EstimatorConfig, HoleFill, Mode, Reprojection, ThresholdTest, MAX_GUESS_STRIDE};
 pub use driver::{estimate_rows, EstimateStats, EstimatedRow, Source};
-pub use estimator::Estimator;
+pub use estimator::{frame_turn, Estimator, MAX_TILT};
 pub use faithful::Estimate;
 pub use improved::{ImprovedEstimate, Outcome};
 pub use reproject::{reproject_exact, reproject_first_order, Motion, Reprojected};
-pub use schedule::{windows, Window};
+pub use schedule::{windows, Schedule, Window, MAX_WINDOW};
 pub use source::SourceHemisphere;
 
 /// Errors of estimation.
@@ -44,8 +45,8 @@ pub enum Error {
         value: f64,
         rule: &'static str,
     },
-    #[error("patches {from} and {to} are not on the same polygon: a hemisphere is estimated only from a neighbour on its own polygon")]
-    NotSamePolygon { from: u32, to: u32 },
+    #[error("a schedule of {schedule} patches was given for a scene of {scene}: a schedule is made for its scene (Schedule::of)")]
+    ScheduleMismatch { schedule: usize, scene: usize },
 }
 
 /// A small deterministic generator (xorshift) for the unit tests: uniform in [0, 1).

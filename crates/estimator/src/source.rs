@@ -3,7 +3,7 @@
 
 use rad_core::{PatchId, PolygonId, Ray, BACK, ESCAPED, NO_POLYGON};
 use rad_geometry::Scene;
-use rad_hemisphere::{Caster, Hemisphere, ItemBuffer};
+use rad_hemisphere::{Caster, Hemisphere, ItemBuffer, Viewpoint};
 
 /// An exact hemisphere with, where asked, boundary lists: a cell whose closest hit is a
 /// patch on its polygon's boundary keeps every further front-facing patch its ray
@@ -20,9 +20,9 @@ pub struct SourceHemisphere {
     /// `list[list_start[c]..list_start[c + 1]]`; empty when lists are off.
     list_start: Vec<u32>,
     list: Vec<(PatchId, f32)>,
-    /// The polygon each cell sees (`NO_POLYGON` for escaped and back-facing rays), made
-    /// on first use by the improved mode and shared by a window's estimates.
-    polygons: std::sync::OnceLock<Vec<PolygonId>>,
+    /// The facet each cell sees (`NO_POLYGON` for escaped and back-facing rays), made on
+    /// first use by the improved mode and shared by a window's estimates.
+    facets: std::sync::OnceLock<Vec<PolygonId>>,
     /// Its points on grids 2, 3 and 4 times coarser, made on first use likewise.
     coarse: [std::sync::OnceLock<CoarsePoints>; 3],
     /// The largest distance of each ring, made on first use likewise.
@@ -30,15 +30,15 @@ pub struct SourceHemisphere {
 }
 
 /// H1's points on a grid s times coarser both ways: one point per s × s cells, the
-/// nearest of them (the first on ties), with its polygon; and the other polygons those
+/// nearest of them (the first on ties), with its facet; and the other facets those
 /// cells see.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct CoarsePoints {
-    /// By coarse cell: the point's distance, polygon, and H1's cell.
+    /// By coarse cell: the point's distance, facet, and H1's cell.
     pub dist: Vec<f32>,
-    pub polygons: Vec<PolygonId>,
+    pub facets: Vec<PolygonId>,
     pub cells: Vec<u32>,
-    /// (coarse cell, polygon): the other polygons of its s × s cells, by cell.
+    /// (coarse cell, facet): the other facets of its s × s cells, by cell.
     pub extras: Vec<(u32, PolygonId)>,
     /// The largest of `dist` in each ring.
     pub ring_max: Vec<f32>,
@@ -102,7 +102,7 @@ impl SourceHemisphere {
             items: self.items.clone(),
             list_start: Vec::new(),
             list: Vec::new(),
-            polygons: self.polygons.clone(),
+            facets: self.facets.clone(),
             coarse: self.coarse.clone(),
             ring_max: self.ring_max.clone(),
         }
@@ -111,6 +111,11 @@ impl SourceHemisphere {
     /// The patch whose hemisphere this is.
     pub fn patch(&self) -> PatchId {
         self.patch
+    }
+
+    /// Where it stands: its patch's centre, on its polygon.
+    pub fn viewpoint(&self, scene: &Scene) -> Viewpoint {
+        Viewpoint::of_patch(scene, self.patch)
     }
 
     /// What each cell sees (a patch, `ESCAPED` or `BACK`) and how far.
@@ -123,26 +128,30 @@ impl SourceHemisphere {
         !self.list_start.is_empty()
     }
 
-    /// The polygon of `id` (a cell's entry or a boundary-list entry) of `scene`, or
-    /// [`NO_POLYGON`] for `ESCAPED` and `BACK`.
+    /// The facet ([`rad_geometry::Facets`]) of the polygon of `id` (a cell's entry or a
+    /// boundary-list entry) of `scene`, or [`NO_POLYGON`] for `ESCAPED` and `BACK`. (A
+    /// polygon with a patch grid of its own is a facet alone, numbered as the polygon
+    /// where every polygon is.)
     #[inline]
-    pub fn polygon_of(scene: &Scene, id: PatchId) -> PolygonId {
+    pub fn facet_of(scene: &Scene, id: PatchId) -> PolygonId {
         if id == ESCAPED || id == BACK {
             NO_POLYGON
         } else {
-            scene.patches()[id as usize].polygon
+            scene
+                .facets()
+                .facet_of(scene.patches()[id as usize].polygon)
         }
     }
 
-    /// The polygon each cell sees ([`SourceHemisphere::polygon_of`] of its entry), made
+    /// The facet each cell sees ([`SourceHemisphere::facet_of`] of its entry), made
     /// from `items` on the first call and kept (so `items` must not change after it).
     /// `scene` must be the scene the hemisphere was cast in.
-    pub fn polygons(&self, scene: &Scene) -> &[PolygonId] {
-        self.polygons.get_or_init(|| {
+    pub fn facets(&self, scene: &Scene) -> &[PolygonId] {
+        self.facets.get_or_init(|| {
             self.items
                 .patch
                 .iter()
-                .map(|&id| Self::polygon_of(scene, id))
+                .map(|&id| Self::facet_of(scene, id))
                 .collect()
         })
     }
@@ -151,14 +160,14 @@ impl SourceHemisphere {
     /// made once (from `items`, which must not change after).
     pub(crate) fn coarse(&self, scene: &Scene, hemi: &Hemisphere, stride: usize) -> &CoarsePoints {
         self.coarse[stride - 2].get_or_init(|| {
-            let values = self.polygons(scene);
+            let values = self.facets(scene);
             let dist = &self.items.dist;
             let (n_theta, n_phi) = (hemi.n_theta() / stride, hemi.n_phi() / stride);
             let fine = hemi.n_phi();
             let mut out = CoarsePoints::default();
             let n = n_theta * n_phi;
             out.dist.reserve(n);
-            out.polygons.reserve(n);
+            out.facets.reserve(n);
             out.cells.reserve(n);
             for i in 0..n_theta {
                 for j in 0..n_phi {
@@ -175,7 +184,7 @@ impl SourceHemisphere {
                         }
                     }
                     out.dist.push(bd);
-                    out.polygons.push(values[best]);
+                    out.facets.push(values[best]);
                     out.cells.push(best as u32);
                     let cell = (i * n_phi + j) as u32;
                     let first = out.extras.len();

@@ -277,7 +277,11 @@ pub(crate) fn splat(
 pub(crate) struct Splat<'a> {
     pub trig: &'a CellTrig,
     pub src: &'a SourceHemisphere,
+    /// The motion, in the destination's frame.
     pub m: &'a Motion,
+    /// The source points' azimuths in the destination's frame, where it is another
+    /// polygon's, turned about the shared normal (`None`: the source's own frame).
+    pub turned: Option<&'a Turned>,
     pub config: &'a EstimatorConfig,
     pub rough: bool,
     pub points: Points<'a>,
@@ -297,6 +301,7 @@ fn splat_body(
         trig,
         src,
         m,
+        turned,
         config,
         rough,
         points,
@@ -313,7 +318,7 @@ fn splat_body(
     keys.resize(n_cells + 1, EMPTY);
     let d = [m.d[0] as f32, m.d[1] as f32, m.d[2] as f32];
     let len = m.len as f32;
-    let (a, b) = sector_motion(trig, d);
+    let sectors = Sectors::new(trig, turned, d);
     let (threshold, lateral) = first_order_test(config);
     // Two passes a ring: destinations (independent, so the CPU overlaps them), then the
     // z-buffered writes. The z-buffer holds squared distances until the end.
@@ -321,23 +326,17 @@ fn splat_body(
     let mut dist2 = vec![0.0f32; n_phi];
     let list_point = ListPoint {
         trig,
-        a: &a,
-        b: &b,
+        cp: sectors.cp,
+        sp: sectors.sp,
+        phi: sectors.phi,
+        inf: turned.map(|t| &t.inf[..]),
+        a: &sectors.a,
+        b: &sectors.b,
         d,
         far: threshold * len,
         lateral,
     };
-    let ka: Vec<f32> = a.iter().map(|&x| x * trig.inv_d_theta).collect();
-    let kb: Vec<f32> = b.iter().map(|&x| x * trig.inv_d_phi).collect();
-    let jc: Vec<f32> = (0..n_phi).map(|j| j as f32 + trig.src_pos).collect();
-    let terms = SectorTerms {
-        ka: &ka,
-        kb: &kb,
-        jc: &jc,
-        a: &a,
-        cp: &trig.cp,
-        sp: &trig.sp,
-    };
+    let terms = sectors.terms();
     let has_lists = src.has_lists();
     // Cursor in the extras (by cell).
     let mut extra = 0;
@@ -380,6 +379,14 @@ fn splat_body(
         );
         ring_pass(isa, rough, first, r, &terms, &params, ring as u32, out);
         let (dest, dist2) = (&mut dest[..n], &dist2[..n]);
+        if let Some(t) = turned {
+            // Points at infinity stay in their direction: their sector, turned.
+            for (j, d) in dest.iter_mut().enumerate() {
+                if !r[j].is_finite() {
+                    *d = (ring as u32) + t.inf[j];
+                }
+            }
+        }
         // The z-buffered writes; the few points near cell edges (unsure) are corrected
         // by the exact path first.
         correct_unsure(trig, r, &terms, &params, dest);
@@ -417,6 +424,12 @@ fn put(keys: &mut [u64], n_cells: usize, cell: u32, r2: f32, value: PatchId) {
 /// A boundary-list point's destination (scalar: the lists are off by default).
 struct ListPoint<'a> {
     trig: &'a CellTrig,
+    /// The source points' azimuths (cos, sin, φ) in the destination's frame, and where
+    /// a turned one at infinity lands (`None`: not turned, its own sector).
+    cp: &'a [f32],
+    sp: &'a [f32],
+    phi: &'a [f32],
+    inf: Option<&'a [u32]>,
     /// Per sector: d·(cosφ, sinφ, 0) and d·(−sinφ, cosφ, 0).
     a: &'a [f32],
     b: &'a [f32],
@@ -426,16 +439,107 @@ struct ListPoint<'a> {
     lateral: bool,
 }
 
-/// Per sector of `trig`: d·(cosφ, sinφ, 0) and d·(−sinφ, cosφ, 0), for the first-order
-/// formulas.
-fn sector_motion(trig: &CellTrig, d: [f32; 3]) -> (Vec<f32>, Vec<f32>) {
-    let a = (0..trig.n_phi)
-        .map(|j| d[0] * trig.cp[j] + d[1] * trig.sp[j])
+/// The per-sector inputs of a splat: the source points' azimuths (the grid's own, or
+/// turned into the destination's frame) and the motion's terms along them.
+struct Sectors<'a> {
+    cp: &'a [f32],
+    sp: &'a [f32],
+    phi: &'a [f32],
+    a: Vec<f32>,
+    b: Vec<f32>,
+    ka: Vec<f32>,
+    kb: Vec<f32>,
+    jc: Vec<f32>,
+}
+
+impl<'a> Sectors<'a> {
+    fn new(trig: &'a CellTrig, turned: Option<&'a Turned>, d: [f32; 3]) -> Sectors<'a> {
+        let (cp, sp, phi) = match turned {
+            None => (&trig.cp[..], &trig.sp[..], &trig.phi[..]),
+            Some(t) => (&t.cp[..], &t.sp[..], &t.phi[..]),
+        };
+        let (a, b) = sector_motion(cp, sp, d);
+        let ka = a.iter().map(|&x| x * trig.inv_d_theta).collect();
+        let kb = b.iter().map(|&x| x * trig.inv_d_phi).collect();
+        let jc = match turned {
+            None => (0..trig.n_phi).map(|j| j as f32 + trig.src_pos).collect(),
+            Some(t) => t.jc.clone(),
+        };
+        Sectors {
+            cp,
+            sp,
+            phi,
+            a,
+            b,
+            ka,
+            kb,
+            jc,
+        }
+    }
+
+    fn terms(&self) -> SectorTerms<'_> {
+        SectorTerms {
+            ka: &self.ka,
+            kb: &self.kb,
+            jc: &self.jc,
+            a: &self.a,
+            cp: self.cp,
+            sp: self.sp,
+        }
+    }
+}
+
+/// Per sector, of the source points' azimuths (`cp`, `sp`): d·(cosφ, sinφ, 0) and
+/// d·(−sinφ, cosφ, 0), for the first-order formulas.
+fn sector_motion(cp: &[f32], sp: &[f32], d: [f32; 3]) -> (Vec<f32>, Vec<f32>) {
+    let a = cp
+        .iter()
+        .zip(sp)
+        .map(|(&c, &s)| d[0] * c + d[1] * s)
         .collect();
-    let b = (0..trig.n_phi)
-        .map(|j| -d[0] * trig.sp[j] + d[1] * trig.cp[j])
+    let b = cp
+        .iter()
+        .zip(sp)
+        .map(|(&c, &s)| -d[0] * s + d[1] * c)
         .collect();
     (a, b)
+}
+
+/// The source points' azimuths in the frame of a destination on another polygon of the
+/// same plane, whose frame is the source's turned about the normal: a source point at
+/// azimuth φ in its own frame is at φ + α in the destination's (`α` as
+/// [`crate::frame_turn`] gives it).
+#[derive(Clone, Debug)]
+pub(crate) struct Turned {
+    /// cos, sin and φ + α of each sector's source point.
+    pub cp: Vec<f32>,
+    pub sp: Vec<f32>,
+    pub phi: Vec<f32>,
+    /// Its sector coordinate `(φ + α) / Δφ − shift` of the destination grid, in [0, N_φ).
+    pub jc: Vec<f32>,
+    /// The sector a point at infinity in that direction lands in.
+    pub inf: Vec<u32>,
+}
+
+impl Turned {
+    /// The azimuths of `trig`'s source points turned by `alpha` (radians).
+    pub(crate) fn new(trig: &CellTrig, alpha: f64) -> Turned {
+        let n = trig.n_phi;
+        let phi: Vec<f64> = trig.phi64.iter().map(|&p| p + alpha).collect();
+        let jc: Vec<f64> = (0..n)
+            .map(|j| (j as f64 + trig.src_pos as f64 + alpha / trig.d_phi).rem_euclid(n as f64))
+            .collect();
+        Turned {
+            cp: phi.iter().map(|p| p.cos() as f32).collect(),
+            sp: phi.iter().map(|p| p.sin() as f32).collect(),
+            phi: phi
+                .iter()
+                .map(|p| p.rem_euclid(std::f64::consts::TAU) as f32)
+                .collect(),
+            jc: jc.iter().map(|&x| x as f32).collect(),
+            inf: jc.iter().map(|&x| (x as u32).min(n as u32 - 1)).collect(),
+        }
+    }
 }
 
 /// The first-order threshold of `config` and whether it applies to R sinθ (else to R).
@@ -463,11 +567,12 @@ impl ListPoint<'_> {
             0.0
         };
         if !r.is_finite() {
-            ((i * n_phi + j) as u32, f32::INFINITY)
+            let l = self.inf.map_or(j as u32, |inf| inf[j]);
+            ((i * n_phi) as u32 + l, f32::INFINITY)
         } else if r * far_scale > self.far {
             // First order (1), Δ = −d: θ' = θ + Δ·e_θ / R, φ' = φ + Δ·e_φ / (R sinθ).
             let mut t2 = trig.theta[i] - (ct * a[j] - st * d[2]) / r;
-            let mut p2 = trig.phi[j] - b[j] / (r * st);
+            let mut p2 = self.phi[j] - b[j] / (r * st);
             if t2 < 0.0 {
                 t2 = -t2;
                 p2 += std::f32::consts::PI;
@@ -481,8 +586,8 @@ impl ListPoint<'_> {
             }
         } else {
             let q = [
-                r * st * trig.cp[j] - d[0],
-                r * st * trig.sp[j] - d[1],
+                r * st * self.cp[j] - d[0],
+                r * st * self.sp[j] - d[1],
                 r * ct - d[2],
             ];
             let r2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];

@@ -1,8 +1,10 @@
 //! Polygons, patch textures, patches and scenes: validation, the JSON and OBJ/MTL scene
 //! files, and the bench-scene builders.
 
+mod adjacency;
 mod clip;
 mod error;
+mod facets;
 pub mod file;
 mod hit_test;
 mod overlap;
@@ -11,7 +13,9 @@ mod scene;
 pub mod scenes;
 mod triangulate;
 
+pub use adjacency::EdgeNeighbours;
 pub use error::{Error, PolygonProblem};
+pub use facets::{Facets, LocateScratch, Located, FACET_TILT};
 pub use hit_test::{OriginTerms, PolygonTerms, Shape, Triangle};
 pub use overlap::{NORMAL_TOLERANCE, OVERLAP_FRACTION, PLANE_TOLERANCE};
 pub use polygon::vertices_problem;

@@ -256,6 +256,7 @@ impl Polygon {
     ///
     /// # Panics
     /// If the three slices differ in length.
+    #[inline]
     pub fn patches_at(&self, u: &[f32], v: &[f32], out: &mut [PatchId]) {
         assert!(
             u.len() == out.len() && v.len() == out.len(),
@@ -267,6 +268,11 @@ impl Polygon {
             out.fill(self.first_patch);
             return;
         }
+        self.patches_at_dispatch(u, v, out);
+    }
+
+    /// [`Polygon::patches_at`] of a polygon of several cells, compiled for the CPU.
+    fn patches_at_dispatch(&self, u: &[f32], v: &[f32], out: &mut [PatchId]) {
         rad_core::with_isa!(rad_core::Isa::detect(), |ISA| fn(
             poly: &Polygon = self,
             u: &[f32] = u,

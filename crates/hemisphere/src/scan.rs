@@ -328,6 +328,49 @@ impl NearestHits {
         test_span::<false>(poly, id, terms, self, cells.start, cells.end);
     }
 
+    /// [`NearestHits::test`] with ties in t going to the lower polygon id whatever the
+    /// order of the calls.
+    #[inline]
+    pub fn test_any_order(
+        &mut self,
+        poly: &Polygon,
+        id: PolygonId,
+        terms: &OriginTerms,
+        cells: Range<usize>,
+    ) {
+        self.test_with::<true>(poly, id, terms, cells);
+    }
+
+    /// Offers cell `c` a hit found by other means (polygon `id` at distance `t`, with
+    /// its (u, v)), kept by the rule of [`NearestHits::test_cell`]: nearer, or as near
+    /// with a lower id.
+    #[inline]
+    pub fn offer(&mut self, c: usize, id: PolygonId, t: f32, u: f32, v: f32) {
+        let (bt, bp) = (self.best_t[c], self.best_p[c]);
+        if (t > 0.0) & ((t < bt) | ((t == bt) & (id < bp) & (t < f32::INFINITY))) {
+            (self.best_t[c], self.best_p[c]) = (t, id);
+            (self.best_u[c], self.best_v[c]) = (u, v);
+        }
+    }
+
+    /// [`NearestHits::test`] on the one cell `c`, with ties in t going to the lower
+    /// polygon id whatever the order of the calls: the same arithmetic, scalar (for
+    /// cells tested one by one).
+    #[inline]
+    pub fn test_cell(&mut self, poly: &Polygon, id: PolygonId, h: &OriginTerms, c: usize) {
+        self.tests += 1;
+        let (x, y, z) = (self.dx[c], self.dy[c], self.dz[c]);
+        let denom = h.denom(x, y, z);
+        let t = h.num / denom;
+        let (u, v) = h.uv(t, x, y, z);
+        let (bt, bp) = (self.best_t[c], self.best_p[c]);
+        let nearer = (t < bt) | ((t == bt) & (id < bp) & (t < f32::INFINITY));
+        if (t > 0.0) & nearer & h.in_bounds(u, v) && poly.accepts(denom, false, u, v) {
+            (self.best_t[c], self.best_p[c]) = (t, id);
+            (self.best_u[c], self.best_v[c]) = (u, v);
+        }
+    }
+
     /// [`NearestHits::test`], or with `ANY_ORDER` the same with ties in t going to the
     /// lower polygon id whatever the order of the calls (so that polygons may come in
     /// any order and the nearest hits are still the grid's).
@@ -444,6 +487,16 @@ impl NearestHits {
             self.best_u[c],
             self.best_v[c],
         )
+    }
+
+    /// The world directions of cells `cells`' rays, by component.
+    #[inline]
+    pub fn directions_of(&self, cells: Range<usize>) -> [&[f32]; 3] {
+        [
+            &self.dx[cells.clone()],
+            &self.dy[cells.clone()],
+            &self.dz[cells],
+        ]
     }
 
     /// The world direction of cell `c`'s ray (as [`rad_core::Frame::world_from_local`]

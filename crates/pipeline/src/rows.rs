@@ -4,7 +4,7 @@
 use crate::{default_estimator, default_grid, CasterKind, Error, RowMethod};
 use rad_accel::VoxelGrid;
 use rad_core::PatchId;
-use rad_estimator::{estimate_rows, EstimateStats, Source};
+use rad_estimator::{estimate_rows, EstimateStats, Schedule, Source};
 use rad_geometry::Scene;
 use rad_hemisphere::{compute_rows, Caster, Hemisphere, Hierarchy, Row, Scan};
 
@@ -41,11 +41,13 @@ pub fn rows(
     impl CasterJob for Job<'_> {
         type Out = Rows;
         fn run<C: Caster>(self, caster: &C) -> Result<Rows, Error> {
+            let schedule = schedule_for(self.scene, self.method);
             let made = rows_with(
                 self.scene,
                 caster,
                 self.hemi,
                 self.method,
+                schedule.as_ref(),
                 self.patches,
                 self.progress,
             )?;
@@ -109,6 +111,7 @@ pub fn rows_streamed_of(
         type Out = EstimateStats;
         fn run<C: Caster>(self, caster: &C) -> Result<EstimateStats, Error> {
             let mut stats = EstimateStats::default();
+            let schedule = schedule_for(self.scene, self.method);
             let chunks = chunks_of(self.scene, self.patches);
             let sink = self.sink;
             for_each_chunk(
@@ -122,6 +125,7 @@ pub fn rows_streamed_of(
                         caster,
                         self.hemi,
                         self.method,
+                        schedule.as_ref(),
                         patches,
                         &progress,
                     )?;
@@ -243,11 +247,19 @@ pub(crate) fn check_rows(rows: &[Row]) -> Result<(), Error> {
     Ok(())
 }
 
+/// The window schedule of an estimated method (made once a run), or `None`.
+fn schedule_for(scene: &Scene, method: RowMethod) -> Option<Schedule> {
+    method.mode().map(|_| Schedule::of(scene))
+}
+
+/// Rows of `patches` by `method` through `caster`; an estimated method's `schedule` is
+/// [`schedule_for`]'s.
 fn rows_with<C: Caster>(
     scene: &Scene,
     caster: &C,
     hemi: &Hemisphere,
     method: RowMethod,
+    schedule: Option<&Schedule>,
     patches: &[PatchId],
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Rows, Error> {
@@ -267,7 +279,16 @@ fn rows_with<C: Caster>(
         }
         Some(mode) => {
             let config = default_estimator(mode);
-            let (rows, stats) = estimate_rows(scene, caster, hemi, &config, patches, progress)?;
+            let made;
+            let schedule = match schedule {
+                Some(s) => s,
+                None => {
+                    made = Schedule::of(scene);
+                    &made
+                }
+            };
+            let (rows, stats) =
+                estimate_rows(scene, caster, hemi, &config, schedule, patches, progress)?;
             let sources = rows
                 .iter()
                 .map(|r| match r.source {

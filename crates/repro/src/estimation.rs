@@ -11,7 +11,9 @@ use rad_estimator::{
     Reprojection, SourceHemisphere, ThresholdTest, Window,
 };
 use rad_geometry::Scene;
-use rad_hemisphere::{Hemisphere, HemisphereConfig, ItemBuffer, Row, RowAccumulator, ScanScratch};
+use rad_hemisphere::{
+    Caster, Hemisphere, HemisphereConfig, ItemBuffer, Row, RowAccumulator, ScanScratch,
+};
 use rad_pipeline::default_grid;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -280,7 +282,7 @@ fn rel_error(est: &Row, exact: &Row) -> f64 {
     targets.iter().sum::<f64>() / targets.len().max(1) as f64
 }
 
-fn l1(a: &Row, b: &Row) -> f64 {
+pub(crate) fn l1(a: &Row, b: &Row) -> f64 {
     let mut s = 0.0;
     let (mut i, mut j) = (0, 0);
     while i < a.entries.len() || j < b.entries.len() {
@@ -344,9 +346,9 @@ fn mean_rel_vs_lambert(scene: &Scene, p: PatchId, row: &Row) -> f64 {
 
 /// Each target's exact row, and its noise: the row of the hemisphere `turned` (φ turned
 /// half a cell).
-fn reference_rows(
+fn reference_rows<C: Caster>(
     scene: &Scene,
-    grid: &VoxelGrid,
+    caster: &C,
     hemi: &Hemisphere,
     turned: &Hemisphere,
     targets: &[(usize, PatchId)],
@@ -357,15 +359,15 @@ fn reference_rows(
         .map_init(
             || {
                 (
-                    grid.new_scratch(),
+                    caster.scratch(),
                     ItemBuffer::default(),
                     RowAccumulator::new(n),
                 )
             },
             |(s, buf, acc), &(_, p)| {
-                hemi.cast(scene, grid, p, s, buf);
+                caster.item_buffer(scene, hemi, p, s, buf);
                 let exact = hemi.row_from_items(p, buf, acc);
-                turned.cast(scene, grid, p, s, buf);
+                caster.item_buffer(scene, turned, p, s, buf);
                 (exact, turned.row_from_items(p, buf, acc))
             },
         )
@@ -402,7 +404,8 @@ fn summarise(
     }
 }
 
-/// Runs the experiment on `scene` for the windows of `polygons` (all if None).
+/// Runs the experiment on `scene` for the windows of `polygons` (all if None), through
+/// the voxel grid.
 pub fn scene_estimation(
     name: &str,
     scene: &Scene,
@@ -413,24 +416,60 @@ pub fn scene_estimation(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<SceneEstimation, Error> {
     let grid = VoxelGrid::build(scene, &default_grid())?;
-    let hemi = Hemisphere::new(HemisphereConfig::exact(resolution.0, resolution.1))?;
-    let turned = Hemisphere::new(HemisphereConfig {
-        phi_shift: 0.5,
-        ..HemisphereConfig::exact(resolution.0, resolution.1)
-    })?;
-    let n = scene.patches().len();
     let wins: Vec<Window> = windows(scene)
         .into_iter()
         .filter(|w| {
             polygons.is_none_or(|ps| ps.contains(&scene.patches()[w.centre as usize].polygon))
         })
         .collect();
+    let job = EstimationJob {
+        name,
+        scene,
+        resolution,
+        with_lambert,
+        settings,
+    };
+    estimation_of(&job, &grid, wins, progress)
+}
+
+/// What the experiment runs on: a scene, a resolution, the settings.
+pub struct EstimationJob<'a> {
+    pub name: &'a str,
+    pub scene: &'a Scene,
+    pub resolution: (u32, u32),
+    /// Whether to compare with Lambert's formula (unoccluded scenes only).
+    pub with_lambert: bool,
+    pub settings: &'a [Setting],
+}
+
+/// Runs the experiment on the windows `wins` of `job.scene`, casting (sources, exact
+/// and noise rows, real rays, fallbacks) through `caster`: every caster gives the same
+/// hemispheres, so the figures do not depend on it, only the time they take.
+pub fn estimation_of<C: Caster>(
+    job: &EstimationJob,
+    caster: &C,
+    wins: Vec<Window>,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<SceneEstimation, Error> {
+    let EstimationJob {
+        name,
+        scene,
+        resolution,
+        with_lambert,
+        settings,
+    } = *job;
+    let hemi = Hemisphere::new(HemisphereConfig::exact(resolution.0, resolution.1))?;
+    let turned = Hemisphere::new(HemisphereConfig {
+        phi_shift: 0.5,
+        ..HemisphereConfig::exact(resolution.0, resolution.1)
+    })?;
+    let n = scene.patches().len();
     // Sources with boundary lists (cleared for settings without), exact and noise rows.
     let sources: Vec<SourceHemisphere> = wins
         .par_iter()
         .map_init(
-            || grid.new_scratch(),
-            |s, w| SourceHemisphere::cast(scene, &grid, &hemi, w.centre, true, s),
+            || caster.scratch(),
+            |s, w| SourceHemisphere::cast(scene, caster, &hemi, w.centre, true, s),
         )
         .collect();
     let targets: Vec<(usize, PatchId)> = wins
@@ -438,7 +477,7 @@ pub fn scene_estimation(
         .enumerate()
         .flat_map(|(k, w)| w.estimated.iter().map(move |&p| (k, p)))
         .collect();
-    let reference = reference_rows(scene, &grid, &hemi, &turned, &targets);
+    let reference = reference_rows(scene, caster, &hemi, &turned, &targets);
     progress(1, settings.len() + 1);
     let est = Estimator::new(&hemi);
     let mut results = Vec::new();
@@ -449,7 +488,7 @@ pub fn scene_estimation(
             .par_iter()
             .zip(&reference)
             .map_init(
-                || (grid.new_scratch(), RowAccumulator::new(n)),
+                || (caster.scratch(), RowAccumulator::new(n)),
                 |(s, acc), (&(w, p), (exact, noise))| {
                     let stripped;
                     let src = if cfg.boundary_lists {
@@ -466,7 +505,7 @@ pub fn scene_estimation(
                         }
                         Mode::Improved => {
                             let mut e = ImprovedEstimate::default();
-                            let outcome = est.improved(scene, &grid, src, p, cfg, s, &mut e);
+                            let outcome = est.improved(scene, caster, src, p, cfg, s, &mut e);
                             let cast = outcome == Outcome::CastExactly;
                             (e.items, e.holes, e.real_rays, cast)
                         }

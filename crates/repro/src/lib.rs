@@ -6,6 +6,7 @@ pub mod accuracy;
 pub mod closed_form;
 pub mod estimation;
 pub mod loft;
+pub mod meshes;
 pub mod ranks;
 pub mod reciprocity;
 pub mod reproduce;

@@ -1,4 +1,5 @@
 //! Integration tests of rad-estimator.
 
+mod across;
 mod props;
 mod scenes;

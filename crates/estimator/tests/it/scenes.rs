@@ -5,7 +5,7 @@ use rad_accel::{VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_estimator::{
     estimate_rows, windows, Estimate, Estimator, EstimatorConfig, HoleFill, ImprovedEstimate, Mode,
-    Outcome, Reprojection, Source, SourceHemisphere, ThresholdTest,
+    Outcome, Reprojection, Schedule, Source, SourceHemisphere, ThresholdTest,
 };
 use rad_geometry::scenes::{cube, loft};
 use rad_geometry::Scene;
@@ -190,8 +190,16 @@ fn estimated_rows_are_valid_rows_in_closed_scenes() {
         ] {
             for fill in [HoleFill::KeepSource, HoleFill::RingNeighbour] {
                 let cfg = with_stride(stride, config(mode, fill, LATERAL, true));
-                let (rows, stats) =
-                    estimate_rows(&scene, &grid, &hemi, &cfg, &some, &|_| {}).unwrap();
+                let (rows, stats) = estimate_rows(
+                    &scene,
+                    &grid,
+                    &hemi,
+                    &cfg,
+                    &Schedule::of(&scene),
+                    &some,
+                    &|_| {},
+                )
+                .unwrap();
                 assert_eq!(rows.len(), some.len());
                 assert!(stats.estimated > 0);
                 for r in &rows {
@@ -224,8 +232,18 @@ fn estimation_does_not_depend_on_the_thread_count() {
             .num_threads(t)
             .build()
             .unwrap();
-        let (rows, mut stats) =
-            pool.install(|| estimate_rows(&scene, &grid, &hemi, &cfg, &some, &|_| {}).unwrap());
+        let (rows, mut stats) = pool.install(|| {
+            estimate_rows(
+                &scene,
+                &grid,
+                &hemi,
+                &cfg,
+                &Schedule::of(&scene),
+                &some,
+                &|_| {},
+            )
+            .unwrap()
+        });
         // Timings are the only thing allowed to differ.
         stats.exact_seconds = 0.0;
         stats.estimate_seconds = 0.0;
@@ -242,7 +260,16 @@ fn cube_errors(cfg: &EstimatorConfig) -> (f64, f64) {
     let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).unwrap();
     let all: Vec<u32> = (0..600).collect();
     let exact = compute_rows(&scene, &grid, &hemi, &all, &|_| {}).unwrap();
-    let (rows, stats) = estimate_rows(&scene, &grid, &hemi, cfg, &all, &|_| {}).unwrap();
+    let (rows, stats) = estimate_rows(
+        &scene,
+        &grid,
+        &hemi,
+        cfg,
+        &Schedule::of(&scene),
+        &all,
+        &|_| {},
+    )
+    .unwrap();
     assert_eq!(
         (stats.exact, stats.estimated + stats.fallback_exact),
         (96, 504)
@@ -439,7 +466,16 @@ fn bad_settings_are_refused_by_name() {
     for (name, cfg) in bad {
         let e = cfg.validate().unwrap_err();
         assert!(e.to_string().contains(name), "{e}");
-        let e = estimate_rows(&scene, &grid, &hemi, &cfg, &[0], &|_| {}).unwrap_err();
+        let e = estimate_rows(
+            &scene,
+            &grid,
+            &hemi,
+            &cfg,
+            &Schedule::of(&scene),
+            &[0],
+            &|_| {},
+        )
+        .unwrap_err();
         assert!(e.to_string().contains(name), "{e}");
     }
 }

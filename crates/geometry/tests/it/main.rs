@@ -1,6 +1,7 @@
 //! Integration tests of rad-geometry.
 
 mod errors;
+mod facets;
 mod frames;
 mod fuzz;
 mod meshes;
