@@ -347,7 +347,7 @@ enum EstimatorMode {
 /// The flags that name a way to make rows.
 #[derive(clap::Args)]
 struct RowFlags {
-    /// exact: every hemisphere cast; estimated: 3x3 windows, centres cast, the rest estimated.
+    /// exact: every hemisphere cast; estimated: 3x3 windows of a polygon (a mesh: windows of about nine neighbouring triangles of one plane), centres cast, the rest estimated.
     #[arg(long, value_enum, default_value_t = Method::Exact)]
     method: Method,
     /// With --method estimated: the report's method (faithful) or visibility estimation (improved).

@@ -81,7 +81,38 @@ pub fn estimate_rows<C: Caster>(
     patches: &[PatchId],
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<(Vec<EstimatedRow>, EstimateStats), Error> {
-    config.validate()?;
+    check(scene, schedule, patches)?;
+    let wanted: HashSet<PatchId> = patches.iter().copied().collect();
+    let mut which: Vec<usize> = patches.iter().map(|&p| schedule.window_of(p)).collect();
+    which.sort_unstable();
+    which.dedup();
+    let job = WindowsJob {
+        scene,
+        hemi,
+        config,
+        schedule,
+        windows: &which,
+        wanted: &|p| wanted.contains(&p),
+    };
+    let (made, stats) = estimate_windows(caster, &job, progress)?;
+    let mut by_patch: HashMap<PatchId, EstimatedRow> = made.into_iter().collect();
+    let mut rows = Vec::with_capacity(patches.len());
+    for (k, p) in patches.iter().enumerate() {
+        // (A patch asked for twice gets a copy.)
+        let again = patches[k + 1..].contains(p);
+        rows.push(if again {
+            by_patch[p].clone()
+        } else {
+            by_patch
+                .remove(p)
+                .expect("every wanted patch's window made")
+        });
+    }
+    Ok((rows, stats))
+}
+
+/// Checks the settings, that `schedule` is `scene`'s and that `patches` are its.
+fn check(scene: &Scene, schedule: &Schedule, patches: &[PatchId]) -> Result<(), Error> {
     let n_patches = scene.patches().len();
     if schedule.n_patches() != n_patches {
         return Err(Error::ScheduleMismatch {
@@ -96,11 +127,49 @@ pub fn estimate_rows<C: Caster>(
         }
         .into());
     }
-    let wanted: HashSet<PatchId> = patches.iter().copied().collect();
-    let mut which: Vec<usize> = patches.iter().map(|&p| schedule.window_of(p)).collect();
-    which.sort_unstable();
-    which.dedup();
-    let todo: Vec<&Window> = which.iter().map(|&k| &schedule.windows()[k]).collect();
+    Ok(())
+}
+
+/// Windows to make rows of, and which of their patches' rows are wanted.
+pub struct WindowsJob<'a> {
+    pub scene: &'a Scene,
+    pub hemi: &'a Hemisphere,
+    pub config: &'a EstimatorConfig,
+    /// `scene`'s schedule, and the windows to make (indices into its windows).
+    pub schedule: &'a Schedule,
+    pub windows: &'a [usize],
+    pub wanted: &'a (dyn Fn(PatchId) -> bool + Sync),
+}
+
+/// The rows of `job`'s windows' patches that `job.wanted` wants (a window's centre is
+/// cast whether wanted or not), window by window, each window's centre first: what
+/// [`estimate_rows`] makes, for callers that take rows of whole windows as they come
+/// (a stream of rows keeping those of later chunks). Windows run in parallel; the rows
+/// do not depend on the thread count. `progress(n)` after each window, with the number
+/// of rows done so far.
+pub fn estimate_windows<C: Caster>(
+    caster: &C,
+    job: &WindowsJob,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<(Vec<(PatchId, EstimatedRow)>, EstimateStats), Error> {
+    let WindowsJob {
+        scene,
+        hemi,
+        config,
+        schedule,
+        windows,
+        wanted,
+    } = *job;
+    config.validate()?;
+    check(scene, schedule, &[])?;
+    let n_windows = schedule.windows().len();
+    if let Some(&bad) = windows.iter().find(|&&k| k >= n_windows) {
+        return Err(Error::WindowOutOfRange {
+            window: bad,
+            windows: n_windows,
+        });
+    }
+    let n_patches = scene.patches().len();
     let run = Run {
         scene,
         caster,
@@ -110,7 +179,7 @@ pub fn estimate_rows<C: Caster>(
         wanted,
     };
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let per_window: Vec<Vec<Made>> = todo
+    let per_window: Vec<Vec<Made>> = windows
         .par_iter()
         .map_init(
             || WindowWork {
@@ -119,17 +188,15 @@ pub fn estimate_rows<C: Caster>(
                 faithful: Estimate::default(),
                 improved: ImprovedEstimate::default(),
             },
-            |work, w| {
-                let out = run.window(w, work);
+            |work, &k| {
+                let out = run.window(&schedule.windows()[k], work);
                 let rows = out.len();
                 progress(done.fetch_add(rows, std::sync::atomic::Ordering::Relaxed) + rows);
                 out
             },
         )
         .collect();
-    let (by_patch, stats) = tally(per_window);
-    let rows = patches.iter().map(|p| by_patch[p].clone()).collect();
-    Ok((rows, stats))
+    Ok(tally(per_window))
 }
 
 /// A row made, with its polygon tests and thread-seconds.
@@ -142,7 +209,7 @@ struct Run<'a, C> {
     hemi: &'a Hemisphere,
     config: &'a EstimatorConfig,
     est: Estimator<'a>,
-    wanted: HashSet<PatchId>,
+    wanted: &'a (dyn Fn(PatchId) -> bool + Sync),
 }
 
 /// A thread's working memory.
@@ -167,7 +234,7 @@ impl<C: Caster> Run<'_, C> {
             config.boundary_lists,
             &mut work.scratch,
         );
-        if self.wanted.contains(&w.centre) {
+        if (self.wanted)(w.centre) {
             let row = hemi.row_from_items(w.centre, src.items(), &mut work.acc);
             let exact = EstimatedRow {
                 row,
@@ -177,7 +244,7 @@ impl<C: Caster> Run<'_, C> {
             };
             out.push((w.centre, exact, 0, clock.elapsed().as_secs_f64()));
         }
-        for &p in w.estimated.iter().filter(|p| self.wanted.contains(p)) {
+        for &p in w.estimated.iter().filter(|&&p| (self.wanted)(p)) {
             let clock = std::time::Instant::now();
             let (items, holes, real_rays, tests, fallback) = match config.mode {
                 Mode::Faithful => {
@@ -218,10 +285,10 @@ impl<C: Caster> Run<'_, C> {
     }
 }
 
-/// The rows by patch, and the run's counts.
-fn tally(per_window: Vec<Vec<Made>>) -> (HashMap<PatchId, EstimatedRow>, EstimateStats) {
+/// The rows made, in the order made, and the run's counts.
+fn tally(per_window: Vec<Vec<Made>>) -> (Vec<(PatchId, EstimatedRow)>, EstimateStats) {
     let mut stats = EstimateStats::default();
-    let mut by_patch: HashMap<PatchId, EstimatedRow> = HashMap::new();
+    let mut out = Vec::new();
     for (p, r, tests, seconds) in per_window.into_iter().flatten() {
         match r.source {
             Source::Exact => {
@@ -240,7 +307,7 @@ fn tally(per_window: Vec<Vec<Made>>) -> (HashMap<PatchId, EstimatedRow>, Estimat
         stats.real_rays += r.real_rays as u64;
         stats.holes += r.holes as u64;
         stats.polygon_tests += tests;
-        by_patch.insert(p, r);
+        out.push((p, r));
     }
-    (by_patch, stats)
+    (out, stats)
 }

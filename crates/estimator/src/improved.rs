@@ -471,6 +471,7 @@ impl Work {
                 g,
                 o,
                 hits.directions_of(a..b),
+                &hits.best_t()[a..b],
                 &mut w.located,
                 &mut w.facet_cells,
             );

@@ -25,7 +25,9 @@ mod splat;
 mod zbuffer;
 
 pub use config::{EstimatorConfig, HoleFill, Mode, Reprojection, ThresholdTest, MAX_GUESS_STRIDE};
-pub use driver::{estimate_rows, EstimateStats, EstimatedRow, Source};
+pub use driver::{
+    estimate_rows, estimate_windows, EstimateStats, EstimatedRow, Source, WindowsJob,
+};
 pub use estimator::{frame_turn, Estimator, MAX_TILT};
 pub use faithful::Estimate;
 pub use improved::{ImprovedEstimate, Outcome};
@@ -47,6 +49,8 @@ pub enum Error {
     },
     #[error("a schedule of {schedule} patches was given for a scene of {scene}: a schedule is made for its scene (Schedule::of)")]
     ScheduleMismatch { schedule: usize, scene: usize },
+    #[error("window {window} does not exist: the schedule has {windows}")]
+    WindowOutOfRange { window: usize, windows: usize },
 }
 
 /// A small deterministic generator (xorshift) for the unit tests: uniform in [0, 1).

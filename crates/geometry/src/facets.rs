@@ -278,7 +278,8 @@ impl Facets {
     }
 
     /// Where the rays from `o` along `(dx[k], dy[k], dz[k])` meet facet `f` (of several
-    /// polygons) in its plane, into `out` (cleared first), one per ray:
+    /// polygons) in its plane, if no farther than `nearer[k]` (a hit found already),
+    /// into `out` (cleared first), one per ray:
     /// [`Located::Clear`] with the polygon and t where a polygon holds the point by over
     /// a hundredth of a grid cell (the polygons of a facet do not overlap, so no other
     /// holds it); [`Located::Outside`] where none comes within that of it (or the ray
@@ -291,11 +292,12 @@ impl Facets {
         f: u32,
         o: Vec3,
         [dx, dy, dz]: [&[f32]; 3],
+        nearer: &[f32],
         out: &mut Vec<Located>,
         scratch: &mut LocateScratch,
     ) {
         let facet = &self.facets[f as usize];
-        let n = dx.len().min(dy.len()).min(dz.len());
+        let n = dx.len().min(dy.len()).min(dz.len()).min(nearer.len());
         out.clear();
         let LocateScratch { x, y, t, cell } = scratch;
         for v in [&mut *x, &mut *y, &mut *t] {
@@ -317,6 +319,7 @@ impl Facets {
             let (gx, gy) = (xk * facet.inv_cell, yk * facet.inv_cell);
             // (NaN fails these.)
             let inside = (tk > 0.0)
+                & (tk <= nearer[k])
                 & (tk < f32::INFINITY)
                 & (gx >= 0.0)
                 & (gy >= 0.0)

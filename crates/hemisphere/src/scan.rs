@@ -401,7 +401,7 @@ impl NearestHits {
 
     /// Every cell's nearest distance so far (∞ where nothing was hit).
     #[inline]
-    pub(crate) fn best_t(&self) -> &[f32] {
+    pub fn best_t(&self) -> &[f32] {
         &self.best_t
     }
 

@@ -4,9 +4,10 @@
 use crate::{default_estimator, default_grid, CasterKind, Error, RowMethod};
 use rad_accel::VoxelGrid;
 use rad_core::PatchId;
-use rad_estimator::{estimate_rows, EstimateStats, Schedule, Source};
+use rad_estimator::{estimate_rows, estimate_windows, EstimateStats, Schedule, Source, WindowsJob};
 use rad_geometry::Scene;
 use rad_hemisphere::{compute_rows, Caster, Hemisphere, Hierarchy, Row, Scan};
+use std::collections::HashMap;
 
 /// Rows made by one method.
 #[derive(Clone, Debug)]
@@ -68,8 +69,9 @@ pub fn rows(
     )
 }
 
-/// Patches a chunk of [`rows_streamed`] holds at least (whole polygons: no window of
-/// estimated rows is split, so the rows are those of [`rows`]).
+/// Patches a chunk of [`rows_streamed`] holds at least (whole polygons: no window within
+/// a polygon is split; a window across polygons is made whole for its first chunk, its
+/// other rows kept for theirs, so the rows are those of [`rows`]).
 pub const STREAM_CHUNK: usize = 512;
 
 /// Every patch's row by `method`, made chunk by chunk (each in parallel) and handed to
@@ -114,21 +116,31 @@ pub fn rows_streamed_of(
             let schedule = schedule_for(self.scene, self.method);
             let chunks = chunks_of(self.scene, self.patches);
             let sink = self.sink;
+            let ahead = schedule
+                .as_ref()
+                .map(|_| std::sync::Mutex::new(Ahead::new(self.scene, self.patches)));
             for_each_chunk(
                 &chunks,
                 |r| {
                     let base = r.start;
-                    let progress = |k| (self.progress)(base + k);
-                    let patches = &self.patches[r.clone()];
-                    let made = rows_with(
-                        self.scene,
-                        caster,
-                        self.hemi,
-                        self.method,
-                        schedule.as_ref(),
-                        patches,
-                        &progress,
-                    )?;
+                    let len = r.len();
+                    let progress = |k: usize| (self.progress)(base + k.min(len));
+                    let made = match (&schedule, &ahead) {
+                        (Some(schedule), Some(ahead)) => {
+                            let mut ahead = ahead.lock().unwrap_or_else(|e| e.into_inner());
+                            let job = (self.scene, self.hemi, self.method, schedule);
+                            ahead.chunk(caster, job, r.clone(), &progress)?
+                        }
+                        _ => rows_with(
+                            self.scene,
+                            caster,
+                            self.hemi,
+                            self.method,
+                            None,
+                            &self.patches[r.clone()],
+                            &progress,
+                        )?,
+                    };
                     check_finite(&made)?;
                     Ok(made)
                 },
@@ -152,6 +164,96 @@ pub fn rows_streamed_of(
             sink,
         },
     )
+}
+
+/// How far ahead (in chunks of [`STREAM_CHUNK`] patches of the list) a stream of
+/// estimated rows makes the rows of a window's other patches, kept until their chunk:
+/// a window of a mesh's polygons spans patches far apart in the list, and its centre is
+/// cast once for all of them within this reach (beyond it, again).
+pub const AHEAD_CHUNKS: usize = 4;
+
+/// A stream of estimated rows: the rows made ahead of their chunk, by patch.
+struct Ahead {
+    /// Each patch's position in the list (`u32::MAX` for patches not in it).
+    position: Vec<u32>,
+    list: Vec<PatchId>,
+    kept: HashMap<PatchId, (Row, Option<PatchId>)>,
+}
+
+impl Ahead {
+    fn new(scene: &Scene, list: &[PatchId]) -> Ahead {
+        let mut position = vec![u32::MAX; scene.patches().len()];
+        for (k, &p) in list.iter().enumerate() {
+            position[p as usize] = position[p as usize].min(k as u32);
+        }
+        Ahead {
+            position,
+            list: list.to_vec(),
+            kept: HashMap::new(),
+        }
+    }
+
+    /// The rows of the list's patches `r` (positions), in order: those kept, and those
+    /// of the windows of the others, made whole (their centres cast once) for every
+    /// patch of the list up to [`AHEAD_CHUNKS`] chunks ahead, the later ones kept.
+    fn chunk<C: Caster>(
+        &mut self,
+        caster: &C,
+        (scene, hemi, method, schedule): (&Scene, &Hemisphere, RowMethod, &Schedule),
+        r: std::ops::Range<usize>,
+        progress: &(dyn Fn(usize) + Sync),
+    ) -> Result<Rows, Error> {
+        let mode = method.mode().expect("an estimated method");
+        let mut windows: Vec<usize> = self.list[r.clone()]
+            .iter()
+            .filter(|p| !self.kept.contains_key(p))
+            .map(|&p| schedule.window_of(p))
+            .collect();
+        windows.sort_unstable();
+        windows.dedup();
+        let reach = (r.start + AHEAD_CHUNKS * STREAM_CHUNK).max(r.end) as u32;
+        let (position, kept) = (&self.position, &self.kept);
+        let wanted = |p: PatchId| {
+            let k = position[p as usize];
+            k >= r.start as u32 && k < reach && !kept.contains_key(&p)
+        };
+        let config = default_estimator(mode);
+        let job = WindowsJob {
+            scene,
+            hemi,
+            config: &config,
+            schedule,
+            windows: &windows,
+            wanted: &wanted,
+        };
+        let (made, stats) = estimate_windows(caster, &job, progress)?;
+        for (p, r) in made {
+            let from = match r.source {
+                Source::Exact | Source::ExactFallback { .. } => None,
+                Source::Estimated { from } => Some(from),
+            };
+            self.kept.insert(p, (r.row, from));
+        }
+        let mut rows = Vec::with_capacity(r.len());
+        let mut sources = Vec::with_capacity(r.len());
+        for (k, &p) in self.list[r.clone()].iter().enumerate() {
+            // (A patch listed twice gets a copy the first time.)
+            let again = self.list[r.start + k + 1..r.end].contains(&p);
+            let (row, from) = if again {
+                self.kept[&p].clone()
+            } else {
+                self.kept.remove(&p).expect("every patch's window made")
+            };
+            rows.push(row);
+            sources.push(from);
+        }
+        Ok(Rows {
+            method,
+            rows,
+            sources,
+            stats,
+        })
+    }
 }
 
 /// Makes each chunk (in parallel inside `make`) and hands it to `sink` in order, the

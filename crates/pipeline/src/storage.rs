@@ -58,6 +58,16 @@ pub enum Progress {
     Sweeps { sweeps: usize, residual: f64 },
 }
 
+/// Chunks of rows a stream holds at most: one being made and one being taken, and for
+/// estimated rows those made ahead of their chunk ([`crate::rows::AHEAD_CHUNKS`]).
+fn chunks_held(method: RowMethod) -> f64 {
+    if method.is_exact() {
+        2.0
+    } else {
+        (2 + crate::rows::AHEAD_CHUNKS) as f64
+    }
+}
+
 fn mib(bytes: f64) -> u64 {
     (bytes / (1u64 << 20) as f64).ceil() as u64
 }
@@ -74,7 +84,7 @@ pub fn choose(
     let n = scene.patches().len();
     let mean = mean_entries(scene, hemi, method)?;
     let stored = mean * n as f64 * STORED_BYTES_PER_ENTRY
-        + 2.0 * (STREAM_CHUNK as f64) * mean * ROW_BYTES_PER_ENTRY
+        + chunks_held(method) * (STREAM_CHUNK as f64) * mean * ROW_BYTES_PER_ENTRY
         + n as f64 * BYTES_PER_PATCH;
     if stored <= limit as f64 {
         return Ok(Storage::Stored);
@@ -105,7 +115,7 @@ pub fn choose(
 const ROW_SET_BYTES_PER_ENTRY: f64 = 12.0 * 1.1;
 
 /// Whether a solve shared by rows (`--solver jacobi`) among `processes` fits `limit`
-/// bytes a process: its share of the rows in a row set, two chunks of rows being made,
+/// bytes a process: its share of the rows in a row set, the chunks of rows a stream holds,
 /// a round of transposes in flight both ways, and the per-patch vectors every process
 /// holds (estimated from [`SAMPLE_ROWS`] rows, as [`choose`] does); else an error
 /// saying what would.
@@ -120,7 +130,7 @@ pub fn check_by_rows(
     let mean = mean_entries(scene, hemi, method)?;
     let share = mean * n as f64 / processes.max(1) as f64;
     let need = share * ROW_SET_BYTES_PER_ENTRY
-        + 2.0 * (STREAM_CHUNK as f64) * mean * ROW_BYTES_PER_ENTRY
+        + chunks_held(method) * (STREAM_CHUNK as f64) * mean * ROW_BYTES_PER_ENTRY
         + 2.0 * share * 12.0 / 8.0
         + n as f64 * BYTES_PER_PATCH;
     if need > limit as f64 {

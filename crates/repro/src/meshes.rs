@@ -138,7 +138,11 @@ fn mesh_scene(
     let errors = estimation_of(&job, &tree, sample, &|_, _| {})?;
     progress(1, 3);
     let hemi = Hemisphere::new(HemisphereConfig::exact(resolution.0, resolution.1))?;
-    let cost = one_thread()?.install(|| cost(scene, &tree, &hemi, &estimating))?;
+    let k = 12.min(estimating.len());
+    let timed: Vec<_> = (0..k)
+        .map(|i| estimating[i * estimating.len() / k].clone())
+        .collect();
+    let cost = one_thread()?.install(|| cost(scene, &tree, &hemi, &timed))?;
     progress(2, 3);
     let table1 = table1(scene, &hemi, best)?;
     progress(3, 3);
@@ -161,8 +165,8 @@ fn mesh_scene(
 
 /// The median thread time of an exact hemisphere (through `caster`) and of each mode's
 /// estimate (an abandoned improved estimate with its exact cast), over the estimated
-/// patches of 12 windows spread over `windows`.
-fn cost<C: Caster>(
+/// patches of `windows` (run it on one thread).
+pub fn cost<C: Caster>(
     scene: &Scene,
     caster: &C,
     hemi: &Hemisphere,
@@ -177,8 +181,7 @@ fn cost<C: Caster>(
     let mut buf = ItemBuffer::default();
     let (mut ie, mut fe) = (Default::default(), Default::default());
     let (mut te, mut ti, mut tf) = (Vec::new(), Vec::new(), Vec::new());
-    let k = 12.min(windows.len());
-    for w in (0..k).map(|i| &windows[i * windows.len() / k.max(1)]) {
+    for w in windows {
         let src = SourceHemisphere::cast(scene, caster, hemi, w.centre, false, &mut s);
         for &p in &w.estimated {
             let t = Instant::now();

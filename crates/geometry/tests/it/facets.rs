@@ -83,10 +83,12 @@ fn a_tessellated_plane_is_one_facet_and_its_points_find_their_triangle() {
     }
     let mut out = Vec::new();
     let mut scratch = LocateScratch::default();
+    let far = vec![f32::INFINITY; 500];
     facets.locate_span(
         floor,
         o,
         [&dirs[0], &dirs[1], &dirs[2]],
+        &far,
         &mut out,
         &mut scratch,
     );
@@ -113,7 +115,14 @@ fn a_tessellated_plane_is_one_facet_and_its_points_find_their_triangle() {
     }
     assert!(clear > 450, "{clear} clear");
     // A ray that misses the floor (upward) meets nothing.
-    facets.locate_span(floor, o, [&[0.0], &[1.0], &[0.0]], &mut out, &mut scratch);
+    facets.locate_span(
+        floor,
+        o,
+        [&[0.0], &[1.0], &[0.0]],
+        &far,
+        &mut out,
+        &mut scratch,
+    );
     assert_eq!(out, [Located::Outside]);
 }
 
@@ -158,7 +167,7 @@ proptest! {
         let d = (Vec3::new(tx, 0.0, tz) - o).normalize();
         let mut out = Vec::new();
         let mut scratch = LocateScratch::default();
-        facets.locate_span(floor, o, [&[d.x], &[d.y], &[d.z]], &mut out, &mut scratch);
+        facets.locate_span(floor, o, [&[d.x], &[d.y], &[d.z]], &[f32::INFINITY], &mut out, &mut scratch);
         let holders: Vec<u32> = (5..scene.polygons().len() as u32)
             .filter(|&p| scene.polygons()[p as usize].intersect(o, d, f32::INFINITY).is_some())
             .collect();

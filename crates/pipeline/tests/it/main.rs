@@ -70,6 +70,57 @@ fn streamed_rows_are_the_rows_in_order() {
     }
 }
 
+/// A mesh's windows cross chunks: a stream of estimated rows makes each window once
+/// (its centre cast once) and keeps the rows of later chunks, in the list's order, for
+/// the whole list and for a list in another order.
+#[test]
+fn streamed_estimates_make_each_window_once() {
+    let scene = Scene::new(scenes::loft_triangles()).unwrap();
+    let n = scene.patches().len();
+    let hemi = Hemisphere::new(HemisphereConfig::exact(4, 16)).unwrap();
+    let method = RowMethod::Estimated {
+        mode: Mode::Improved,
+        centres: CasterKind::Hierarchy,
+    };
+    let schedule = rad_estimator::Schedule::of(&scene);
+    let crossing = schedule
+        .windows()
+        .iter()
+        .filter(|w| {
+            w.estimated
+                .iter()
+                .any(|&p| p as usize / STREAM_CHUNK != w.centre as usize / STREAM_CHUNK)
+        })
+        .count();
+    assert!(crossing > 100, "{crossing} windows cross chunks");
+    let whole = all_rows(&scene, &hemi, method);
+    // Every patch's, in order; and every third patch's, backwards by polygon.
+    let all: Vec<u32> = (0..n as u32).collect();
+    let some: Vec<u32> = (0..n as u32).rev().step_by(3).collect();
+    for list in [all, some] {
+        let mut streamed = Vec::new();
+        let stats =
+            rad_pipeline::rows_streamed_of(&scene, &hemi, method, &list, &|_| {}, &mut |made| {
+                streamed.extend(made.rows);
+                Ok(())
+            })
+            .unwrap();
+        let want: Vec<_> = list
+            .iter()
+            .map(|&p| whole.rows[p as usize].clone())
+            .collect();
+        assert_eq!(streamed.len(), list.len());
+        assert!(
+            streamed == want,
+            "streamed rows equal the rows, in the list's order"
+        );
+        if list.len() == n {
+            assert_eq!(stats.exact, whole.stats.exact, "each centre cast once");
+            assert_eq!(stats.exact + stats.estimated + stats.fallback_exact, n);
+        }
+    }
+}
+
 #[test]
 fn streamed_solve_matches_the_rows_solve_and_not_the_threads() {
     let scene = loft();
