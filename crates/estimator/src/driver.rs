@@ -96,22 +96,22 @@ pub fn estimate_rows<C: Caster>(
     };
     let (made, stats) = estimate_windows(caster, &job, progress)?;
     let mut by_patch: HashMap<PatchId, EstimatedRow> = made.into_iter().collect();
+    // (A patch asked for twice gets copies before its last place.)
+    let last: HashMap<PatchId, usize> = patches.iter().enumerate().map(|(k, &p)| (p, k)).collect();
     let mut rows = Vec::with_capacity(patches.len());
     for (k, p) in patches.iter().enumerate() {
-        // (A patch asked for twice gets a copy.)
-        let again = patches[k + 1..].contains(p);
-        rows.push(if again {
-            by_patch[p].clone()
+        let row = if last[p] > k {
+            by_patch.get(p).cloned()
         } else {
-            by_patch
-                .remove(p)
-                .expect("every wanted patch's window made")
-        });
+            by_patch.remove(p)
+        };
+        rows.push(row.ok_or(Error::Unmade { patch: *p })?);
     }
     Ok((rows, stats))
 }
 
-/// Checks the settings, that `schedule` is `scene`'s and that `patches` are its.
+/// Checks that `schedule` is made for a scene of `scene`'s patch count and that
+/// `patches` are `scene`'s.
 fn check(scene: &Scene, schedule: &Schedule, patches: &[PatchId]) -> Result<(), Error> {
     let n_patches = scene.patches().len();
     if schedule.n_patches() != n_patches {

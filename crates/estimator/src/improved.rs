@@ -227,7 +227,7 @@ impl Estimator<'_> {
 
     /// Step 1: splats H1's polygons onto the guess grid `trig` into `w.guess`
     /// (z-buffered; coarse grids' other polygons into `w.extras`, by ring); returns the
-    /// polygons of the points splatted, by guess cell, and the turn of `to`'s frame from
+    /// facets of the points splatted, by guess cell, and the turn of `to`'s frame from
     /// the source's in whole sectors of the guess grid. Guesses need not be exact: a cell
     /// tests its neighbours' guesses too, so the near points' cells come from the
     /// polynomial angles without edge corrections (off by one cell within about 1e-6
@@ -288,7 +288,8 @@ impl Estimator<'_> {
 }
 
 impl Work {
-    /// Step 2: the runs of usable guesses (not `own`, not a hole, not nothing) ring by
+    /// Step 2: the runs of usable guesses (not `own`, the target's facet, not a hole,
+    /// not nothing) ring by
     /// ring of the guess grid (`n_theta` × `n_phi`), holes filled as
     /// `HoleFill::RingNeighbour` fills them (each hole takes the nearer written cell of
     /// its ring, the lower φ on ties; H1's polygon, `ring_values`, turned by `turn`

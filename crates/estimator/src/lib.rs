@@ -51,6 +51,8 @@ pub enum Error {
     ScheduleMismatch { schedule: usize, scene: usize },
     #[error("window {window} does not exist: the schedule has {windows}")]
     WindowOutOfRange { window: usize, windows: usize },
+    #[error("patch {patch}'s window made no row for it (a bug: please report it)")]
+    Unmade { patch: u32 },
 }
 
 /// A small deterministic generator (xorshift) for the unit tests: uniform in [0, 1).

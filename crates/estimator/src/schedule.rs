@@ -4,7 +4,8 @@
 //! windows; the centre patch is cast exactly, the others estimated from it. A polygon of
 //! one patch (a mesh's triangle) has no neighbour of its own, so those are grouped across
 //! polygons instead: neighbouring one-patch polygons of one plane (normals within
-//! [`crate::MAX_TILT`], the same plane to a thousandth of a window) make a window of
+//! [`crate::MAX_TILT`] of the first one's, the same plane to a thousandth of a window:
+//! so within twice that of each other) make a window of
 //! about nine patches, whose centre is cast exactly and whose other patches are estimated
 //! from it in their own frames, turned about the normal (see [`crate::frame_turn`]).
 
@@ -80,8 +81,9 @@ pub const MAX_WINDOW: usize = 12;
 ///
 /// Polygons of one patch: their centres binned in cubes of side 3h (h the median of
 /// √area over them, so that a cube of a plane holds about nine), the cubes' origin the
-/// lowest corner of the centres' box; in each cube, the patches of one plane (parallel
-/// normals, within a thousandth of the cube's side of the plane of the lowest one) make
+/// lowest corner of the centres' box; in each cube, the patches of one plane (normals
+/// parallel to the lowest one's within [`crate::MAX_TILT`], within a thousandth of the
+/// cube's side of its plane) make
 /// a window, split in eight while it holds over [`MAX_WINDOW`]; its exact patch is the
 /// one nearest the window's mean centre (the lowest id on ties).
 pub fn windows(scene: &Scene) -> Vec<Window> {

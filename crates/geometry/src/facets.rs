@@ -45,6 +45,29 @@ struct Outline {
     polygon: PolygonId,
 }
 
+impl Outline {
+    /// Polygon `p`'s outline from its vertices `vs` (at most four) in the plane's
+    /// coordinates, with its lines in f64.
+    fn of(p: PolygonId, vs: &[DVec2]) -> (Outline, [[f64; 3]; 4]) {
+        // (A triangle's fourth line holds every point: 0 x + 0 y + ∞.)
+        let mut outline = Outline {
+            lines: [[0.0, 0.0, f32::INFINITY]; 4],
+            n: vs.len() as u32,
+            polygon: p,
+        };
+        let mut lines = [[0.0f64; 3]; 4];
+        for k in 0..vs.len() {
+            let (a, b) = (vs[k], vs[(k + 1) % vs.len()]);
+            let e = (b - a) / (b - a).length();
+            // Inside (counter-clockwise about the normal, so in (t, b)) is left.
+            let (na, nb) = (-e.y, e.x);
+            lines[k] = [na, nb, -(na * a.x + nb * a.y)];
+            outline.lines[k] = lines[k].map(|x| x as f32);
+        }
+        (outline, lines)
+    }
+}
+
 const EMPTY: u32 = u32::MAX;
 const OVERFLOW: u32 = 1 << 31;
 
@@ -62,7 +85,9 @@ struct Facet {
     inv_cell: f32,
     dims: [u32; 2],
     first_cell: u32,
-    /// How far outside its edges a point may lie and still count as a polygon's.
+    /// How far outside its edges a point may lie and still count as a polygon's: a
+    /// hundredth of a grid cell, plus twice the members' own tests' reach and the f32
+    /// rounding of points and coordinates (the margin).
     margin: f32,
 }
 
@@ -103,7 +128,8 @@ impl Facets {
             let first = out.members.len();
             out.members.push(seed as PolygonId);
             if joins(seed) {
-                // Breadth first across edges, within the seed's plane.
+                // Across edges (depth first; the members are sorted after), within the
+                // seed's plane.
                 let plane = Plane::of(&polygons[seed]);
                 queue.clear();
                 queue.push(seed);
@@ -167,38 +193,40 @@ impl Facets {
             (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
             |(lo, hi), &v| (lo.min(v), hi.max(v)),
         );
-        // Padded by a millionth of the facet's size (the f32 hit points of rays at
-        // grazing angles stray from the f64 plane).
-        let pad = 1e-6 * (hi - lo).max_element() + 1e-12;
-        let (lo, hi) = (lo - pad, hi + pad);
-        let size = hi - lo;
+        // How far a point may stray and still be a polygon's: past its edges by its own
+        // test's reach, and by the f32 rounding of the hit point and its coordinates
+        // (a few millionths of the largest coordinate; rays at grazing angles stray
+        // from the f64 plane too).
+        let reach = ids
+            .iter()
+            .map(|&p| f64::from(polygons[p as usize].reach()))
+            .fold(0.0, f64::max);
+        let magnitude = lo.abs().max(hi.abs()).max_element();
+        let slack = 2.0 * reach + 4e-6 * magnitude + 1e-6 * (hi - lo).max_element() + 1e-12;
         let area: f64 = ids.iter().map(|&p| polygons[p as usize].area()).sum();
-        let cell = (0.5 * (area / ids.len() as f64).sqrt()).max(size.max_element() / 8192.0);
+        let box_area = (hi - lo).x.max(slack) * (hi - lo).y.max(slack);
+        // Cells of half a polygon's size across, at most 16 a polygon (a long, thin or
+        // ring-shaped facet's box holds far more than its polygons' area), at most
+        // 8192 along a side.
+        let cell = (0.5 * (area / ids.len() as f64).sqrt())
+            .max((box_area / (16.0 * ids.len() as f64)).sqrt())
+            .max((hi - lo).max_element() / 8000.0);
+        let margin = slack + 0.01 * cell;
+        // The box padded by the margin (a hit just outside the facet's border is still
+        // its border polygon's candidate).
+        let (lo, hi) = (lo - margin, hi + margin);
+        let size = hi - lo;
         let dims = [
             ((size.x / cell).ceil() as u32).clamp(1, 8192),
             ((size.y / cell).ceil() as u32).clamp(1, 8192),
         ];
         let index = |x: f64, d: u32| ((x / cell).floor().max(0.0) as u32).min(d - 1);
-        // Each polygon in the cells it meets, grown by a hundredth of a cell.
-        let grow = pad + 0.01 * cell;
+        // Each polygon in the cells it meets, grown by the margin.
+        let grow = margin;
         let mut lists: Vec<Vec<u32>> = vec![Vec::new(); (dims[0] * dims[1]) as usize];
         for (&p, vs) in ids.iter().zip(&shapes) {
             let slot = self.edges.len() as u32;
-            // (A triangle's fourth line holds every point: 0 x + 0 y + ∞.)
-            let mut outline = Outline {
-                lines: [[0.0, 0.0, f32::INFINITY]; 4],
-                n: vs.len() as u32,
-                polygon: p,
-            };
-            let mut lines = [[0.0f64; 3]; 4];
-            for k in 0..vs.len() {
-                let (a, b) = (vs[k], vs[(k + 1) % vs.len()]);
-                let e = (b - a) / (b - a).length();
-                // Inside (counter-clockwise about the normal, so in (t, b)) is left.
-                let (na, nb) = (-e.y, e.x);
-                lines[k] = [na, nb, -(na * a.x + nb * a.y)];
-                outline.lines[k] = lines[k].map(|x| x as f32);
-            }
+            let (outline, lines) = Outline::of(p, vs);
             self.edges.push(outline);
             let (bl, bh) = vs.iter().fold(
                 (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
@@ -237,7 +265,7 @@ impl Facets {
         facet.lo = [lo.x as f32, lo.y as f32];
         facet.inv_cell = (1.0 / cell) as f32;
         facet.dims = dims;
-        facet.margin = (0.01 * cell) as f32;
+        facet.margin = margin as f32;
         facet
     }
 
@@ -280,10 +308,12 @@ impl Facets {
     /// Where the rays from `o` along `(dx[k], dy[k], dz[k])` meet facet `f` (of several
     /// polygons) in its plane, if no farther than `nearer[k]` (a hit found already),
     /// into `out` (cleared first), one per ray:
-    /// [`Located::Clear`] with the polygon and t where a polygon holds the point by over
-    /// a hundredth of a grid cell (the polygons of a facet do not overlap, so no other
-    /// holds it); [`Located::Outside`] where none comes within that of it (or the ray
-    /// does not meet the plane ahead); [`Located::Near`] otherwise. Neighbouring rays
+    /// [`Located::Clear`] with the polygon and the plane's t where a polygon holds the
+    /// point by over the facet's margin (a hundredth of a grid cell, plus the members'
+    /// own tests' reach and f32 rounding: the polygons of a facet do not overlap, so no
+    /// other polygon's test holds it); [`Located::Outside`] where none comes within the
+    /// margin of it (or the ray does not meet the plane ahead, or meets it beyond
+    /// `nearer[k]`); [`Located::Near`] otherwise. Neighbouring rays
     /// often meet one polygon: the last one found is tried first; the grid cells are
     /// fetched a few rays ahead (the rays of a ring meet scattered cells of a large
     /// facet).
@@ -405,8 +435,8 @@ impl Facets {
         d
     }
 
-    /// Calls `f` with each polygon of facet `f` that holds, to within a hundredth of a
-    /// grid cell, the point where the ray `o + t·dir` (t > 0) meets the facet's plane
+    /// Calls `f` with each polygon of facet `f` that holds, to within the facet's
+    /// margin, the point where the ray `o + t·dir` (t > 0) meets the facet's plane
     /// (none where the ray does not meet the plane ahead, or meets it outside the
     /// facet's box); a facet of one polygon gives it whatever the ray. (Candidates for
     /// each polygon's own hit test, which decides.)

@@ -342,8 +342,9 @@ impl NearestHits {
     }
 
     /// Offers cell `c` a hit found by other means (polygon `id` at distance `t`, with
-    /// its (u, v)), kept by the rule of [`NearestHits::test_cell`]: nearer, or as near
-    /// with a lower id.
+    /// its (u, v): any, for a polygon of one patch, whose patch they do not choose),
+    /// kept by the rule of [`NearestHits::test_cell`]: nearer, or as near with a lower
+    /// id.
     #[inline]
     pub fn offer(&mut self, c: usize, id: PolygonId, t: f32, u: f32, v: f32) {
         let (bt, bp) = (self.best_t[c], self.best_p[c]);

@@ -76,7 +76,8 @@ pub const STREAM_CHUNK: usize = 512;
 
 /// Every patch's row by `method`, made chunk by chunk (each in parallel) and handed to
 /// `sink` in patch order as soon as the chunk is done, so that only two chunks are
-/// held at a time (one being made, one being taken); the next chunk is made while
+/// held at a time (one being made, one being taken; estimated rows of a mesh keep up to
+/// [`AHEAD_CHUNKS`] more, made with their window ahead of their chunk); the next chunk is made while
 /// `sink` takes the last. The rows, and the order, are those of [`rows`] over every
 /// patch; `progress(n)` gets the rows done so far. Returns the run's counts.
 pub fn rows_streamed(
@@ -174,28 +175,34 @@ pub const AHEAD_CHUNKS: usize = 4;
 
 /// A stream of estimated rows: the rows made ahead of their chunk, by patch.
 struct Ahead {
-    /// Each patch's position in the list (`u32::MAX` for patches not in it).
-    position: Vec<u32>,
     list: Vec<PatchId>,
     kept: HashMap<PatchId, (Row, Option<PatchId>)>,
+    /// By position: where the same patch comes next in the list (`u32::MAX`: never).
+    next: Vec<u32>,
+    /// By patch: its next position not yet handed out (`u32::MAX`: none).
+    pending: Vec<u32>,
 }
 
 impl Ahead {
     fn new(scene: &Scene, list: &[PatchId]) -> Ahead {
-        let mut position = vec![u32::MAX; scene.patches().len()];
-        for (k, &p) in list.iter().enumerate() {
-            position[p as usize] = position[p as usize].min(k as u32);
+        let mut pending = vec![u32::MAX; scene.patches().len()];
+        let mut next = vec![u32::MAX; list.len()];
+        for (k, &p) in list.iter().enumerate().rev() {
+            next[k] = pending[p as usize];
+            pending[p as usize] = k as u32;
         }
         Ahead {
-            position,
             list: list.to_vec(),
             kept: HashMap::new(),
+            next,
+            pending,
         }
     }
 
     /// The rows of the list's patches `r` (positions), in order: those kept, and those
     /// of the windows of the others, made whole (their centres cast once) for every
-    /// patch of the list up to [`AHEAD_CHUNKS`] chunks ahead, the later ones kept.
+    /// patch of the list whose next place is up to [`AHEAD_CHUNKS`] chunks ahead, the
+    /// later ones kept (a patch listed again within that reach keeps a copy).
     fn chunk<C: Caster>(
         &mut self,
         caster: &C,
@@ -203,7 +210,13 @@ impl Ahead {
         r: std::ops::Range<usize>,
         progress: &(dyn Fn(usize) + Sync),
     ) -> Result<Rows, Error> {
-        let mode = method.mode().expect("an estimated method");
+        let Some(mode) = method.mode() else {
+            return Err(Error::Parse {
+                what: "row method",
+                input: method.name(),
+                reason: "windows are made for estimated rows only".into(),
+            });
+        };
         let mut windows: Vec<usize> = self.list[r.clone()]
             .iter()
             .filter(|p| !self.kept.contains_key(p))
@@ -212,9 +225,9 @@ impl Ahead {
         windows.sort_unstable();
         windows.dedup();
         let reach = (r.start + AHEAD_CHUNKS * STREAM_CHUNK).max(r.end) as u32;
-        let (position, kept) = (&self.position, &self.kept);
+        let (pending, kept) = (&self.pending, &self.kept);
         let wanted = |p: PatchId| {
-            let k = position[p as usize];
+            let k = pending[p as usize];
             k >= r.start as u32 && k < reach && !kept.contains_key(&p)
         };
         let config = default_estimator(mode);
@@ -236,13 +249,21 @@ impl Ahead {
         }
         let mut rows = Vec::with_capacity(r.len());
         let mut sources = Vec::with_capacity(r.len());
-        for (k, &p) in self.list[r.clone()].iter().enumerate() {
-            // (A patch listed twice gets a copy the first time.)
-            let again = self.list[r.start + k + 1..r.end].contains(&p);
-            let (row, from) = if again {
-                self.kept[&p].clone()
+        for k in r.clone() {
+            let p = self.list[k];
+            let next = self.next[k];
+            self.pending[p as usize] = next;
+            let made = if next < reach {
+                self.kept.get(&p).cloned()
             } else {
-                self.kept.remove(&p).expect("every patch's window made")
+                self.kept.remove(&p)
+            };
+            let Some((row, from)) = made else {
+                return Err(Error::Parse {
+                    what: "row stream",
+                    input: format!("patch {p}"),
+                    reason: "its window made no row for it (a bug: please report it)".into(),
+                });
             };
             rows.push(row);
             sources.push(from);

@@ -176,6 +176,48 @@ proptest! {
     }
 }
 
+/// Zero motion on a mesh: the viewpoint of a floor triangle's patch, on another
+/// triangle of the floor; the walls and ceiling are facets of many triangles, which
+/// improved mode locates cell by cell: the same patches as the exact hemisphere there.
+#[test]
+fn zero_motion_on_a_mesh_locates_every_cell() {
+    let scene = Scene::new(mesh_cube(6)).unwrap();
+    let grid = VoxelGrid::build(&scene, &VoxelGridConfig::DEFAULT).unwrap();
+    let est_hemi = Hemisphere::new(HemisphereConfig::exact(45, 180)).unwrap();
+    let est = Estimator::new(&est_hemi);
+    let mut s = grid.new_scratch();
+    let floor: Vec<u32> = (0..scene.polygons().len() as u32)
+        .filter(|&p| scene.polygons()[p as usize].name().starts_with("floor"))
+        .collect();
+    assert!(scene.facets().is_several(scene.facets().facet_of(floor[0])));
+    for (a, b) in [
+        (floor[0], floor[7]),
+        (floor[20], floor[3]),
+        (floor[41], floor[40]),
+    ] {
+        let src_patch = scene.polygons()[a as usize].first_patch();
+        let src = SourceHemisphere::cast(&scene, &grid, &est_hemi, src_patch, false, &mut s);
+        let at = Viewpoint {
+            point: scene.patches()[src_patch as usize].center,
+            polygon: b,
+        };
+        let mut exact = ItemBuffer::default();
+        grid.item_buffer_at(&scene, &est_hemi, at, &mut s, &mut exact);
+        let mut i = ImprovedEstimate::default();
+        est.improved_at(
+            &scene,
+            &grid,
+            &src,
+            at,
+            &config(Mode::Improved),
+            &mut s,
+            &mut i,
+        );
+        assert_eq!(differing(&i.items, &exact), 0, "{a} to {b}");
+        assert_eq!(i.real_rays, 0, "{a} to {b}");
+    }
+}
+
 /// A mesh's one-patch triangles are scheduled across polygons: every patch once, each
 /// window of one plane and at most `MAX_WINDOW` patches, most windows estimating.
 #[test]

@@ -97,7 +97,14 @@ fn streamed_estimates_make_each_window_once() {
     // Every patch's, in order; and every third patch's, backwards by polygon.
     let all: Vec<u32> = (0..n as u32).collect();
     let some: Vec<u32> = (0..n as u32).rev().step_by(3).collect();
-    for list in [all, some] {
+    // Patches listed twice, within the reach of the rows kept ahead and beyond it.
+    let twice: Vec<u32> = (0..2000)
+        .chain(100..700)
+        .chain(1500..1600)
+        .chain(5000..6000)
+        .chain(0..300)
+        .collect();
+    for list in [all, some, twice] {
         let mut streamed = Vec::new();
         let stats =
             rad_pipeline::rows_streamed_of(&scene, &hemi, method, &list, &|_| {}, &mut |made| {
