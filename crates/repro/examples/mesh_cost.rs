@@ -3,7 +3,6 @@
 //! `cargo run --release -p rad-repro --example mesh_cost -- loft_fine [180x720] [WINDOWS]`
 //! (WINDOWS: how many estimating windows, spread over the scene's; 12 unless given).
 use rad_estimator::Schedule;
-use rad_geometry::scenes::{blob_room, loft_fine_triangles, loft_patches, loft_triangles};
 use rad_geometry::Scene;
 use rad_hemisphere::{Hemisphere, HemisphereConfig, Hierarchy};
 
@@ -13,12 +12,10 @@ fn main() {
     let (nt, np) = rad_pipeline::parse_resolution(args.get(2).map_or("180x720", String::as_str))
         .expect("resolution");
     let k: usize = args.get(3).map_or(12, |s| s.parse().expect("a count"));
-    let scene = Scene::new(match name {
-        "loft_patches" => loft_patches(),
-        "loft_triangles" => loft_triangles(),
-        "blob_room" => blob_room(),
-        _ => loft_fine_triangles(),
-    })
+    let scene = Scene::new(
+        rad_repro::meshes::mesh_scene(name)
+            .expect("a mesh scene: loft_patches, loft_triangles, loft_fine or blob_room"),
+    )
     .expect("a valid scene");
     let tree = Hierarchy::new(&scene);
     let hemi = Hemisphere::new(HemisphereConfig::exact(nt, np)).expect("a resolution");

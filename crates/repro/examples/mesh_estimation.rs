@@ -5,7 +5,6 @@
 //! real-ray shares; `FAITHFUL=1` adds faithful mode.
 
 use rad_estimator::{windows, Mode};
-use rad_geometry::scenes::{blob_room, loft_fine_triangles, loft_patches, loft_triangles};
 use rad_geometry::Scene;
 use rad_hemisphere::Hierarchy;
 use rad_repro::estimation::{estimation_of, EstimationJob, Setting};
@@ -16,12 +15,8 @@ fn main() {
     let (nt, np) = rad_pipeline::parse_resolution(args.get(2).map_or("180x720", String::as_str))
         .expect("resolution");
     let step: usize = args.get(3).map_or(200, |s| s.parse().expect("a step"));
-    let desc = match name {
-        "loft_patches" => loft_patches(),
-        "loft_triangles" => loft_triangles(),
-        "blob_room" => blob_room(),
-        _ => loft_fine_triangles(),
-    };
+    let desc = rad_repro::meshes::mesh_scene(name)
+        .expect("a mesh scene: loft_patches, loft_triangles, loft_fine or blob_room");
     let scene = Scene::new(desc).expect("a valid scene");
     let t = std::time::Instant::now();
     let all = windows(&scene);

@@ -74,12 +74,25 @@ pub struct Table1 {
     pub sample_l1: Summary,
 }
 
-/// The mesh scenes (`quick`: `loft_patches` and `blob_room` at 45 × 180).
+/// The mesh scenes by name, their builders.
+pub const MESH_SCENES: [(&str, fn() -> SceneDesc); 4] = [
+    ("loft_patches", loft_patches),
+    ("loft_triangles", loft_triangles),
+    ("loft_fine", loft_fine_triangles),
+    ("blob_room", blob_room),
+];
+
+/// The mesh scene `name` ([`MESH_SCENES`]), built.
+pub fn mesh_scene(name: &str) -> Option<SceneDesc> {
+    MESH_SCENES.iter().find(|m| m.0 == name).map(|m| (m.1)())
+}
+
+/// The mesh scenes (`quick`: `loft_patches` and `blob_room` at 24 × 96).
 pub fn run(
     quick: bool,
     progress: &(dyn Fn(&str, usize, usize) + Sync),
 ) -> Result<MeshEstimation, Error> {
-    let (nt, np) = if quick { (45, 180) } else { (180, 720) };
+    let (nt, np) = if quick { (24, 96) } else { (180, 720) };
     let mut scenes: Vec<(&'static str, fn() -> SceneDesc, usize)> = vec![
         ("loft_patches", loft_patches, 40),
         ("blob_room", blob_room, 4),
@@ -92,7 +105,7 @@ pub fn run(
     for (name, build, step) in scenes {
         let scene = Scene::new(build())?;
         let stage = format!("meshes, {name}");
-        out.push(mesh_scene(name, &scene, (nt, np), step, &|s, n| {
+        out.push(scene_section(name, &scene, (nt, np), step, &|s, n| {
             progress(&stage, s, n)
         })?);
     }
@@ -102,7 +115,7 @@ pub fn run(
     })
 }
 
-fn mesh_scene(
+fn scene_section(
     name: &'static str,
     scene: &Scene,
     resolution: (u32, u32),
