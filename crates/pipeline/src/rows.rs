@@ -259,11 +259,7 @@ impl Ahead {
                 self.kept.remove(&p)
             };
             let Some((row, from)) = made else {
-                return Err(Error::Parse {
-                    what: "row stream",
-                    input: format!("patch {p}"),
-                    reason: "its window made no row for it (a bug: please report it)".into(),
-                });
+                return Err(rad_estimator::Error::Unmade { patch: p }.into());
             };
             rows.push(row);
             sources.push(from);

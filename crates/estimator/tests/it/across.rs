@@ -82,6 +82,23 @@ fn differing(a: &ItemBuffer, b: &ItemBuffer) -> usize {
     a.patch.iter().zip(&b.patch).filter(|(x, y)| x != y).count()
 }
 
+/// Improved mode's estimate at `at` from `src` (default settings, every real ray
+/// allowed), and the exact hemisphere there.
+fn improved_against_exact<C: Caster>(
+    est: &Estimator,
+    scene: &Scene,
+    caster: &C,
+    src: &SourceHemisphere,
+    at: Viewpoint,
+    s: &mut C::Scratch,
+) -> (Outcome, ImprovedEstimate, ItemBuffer) {
+    let mut exact = ItemBuffer::default();
+    caster.item_buffer_at(scene, est.hemisphere(), at, s, &mut exact);
+    let mut i = ImprovedEstimate::default();
+    let outcome = est.improved_at(scene, caster, src, at, &config(Mode::Improved), s, &mut i);
+    (outcome, i, exact)
+}
+
 /// Zero motion to a viewpoint on another polygon of the plane: improved mode gives the
 /// exact hemisphere there, in its own frame; faithful mode gives the source's cells
 /// turned by the frames' turn (45° steps here, whole sectors at 24 × 96).
@@ -101,18 +118,7 @@ fn zero_motion_across_polygons_gives_the_source_hemisphere_turned() {
             polygon: b,
         };
         let alpha = frame_turn(&scene, a, b).expect("one plane");
-        let mut exact = ItemBuffer::default();
-        grid.item_buffer_at(&scene, &hemi, at, &mut s, &mut exact);
-        let mut i = ImprovedEstimate::default();
-        let outcome = est.improved_at(
-            &scene,
-            &grid,
-            &src,
-            at,
-            &config(Mode::Improved),
-            &mut s,
-            &mut i,
-        );
+        let (outcome, i, exact) = improved_against_exact(&est, &scene, &grid, &src, at, &mut s);
         assert_eq!(outcome, Outcome::Estimated, "turns {turns:?}");
         assert_eq!(differing(&i.items, &exact), 0, "improved, turns {turns:?}");
         assert_eq!(i.real_rays, 0, "turns {turns:?}");
@@ -167,10 +173,7 @@ proptest! {
         let src_patch = scene.polygons()[a as usize].first_patch();
         let src = SourceHemisphere::cast(&scene, &grid, &hemi, src_patch, false, &mut s);
         let at = Viewpoint { point: scene.patches()[src_patch as usize].center, polygon: b };
-        let mut exact = ItemBuffer::default();
-        grid.item_buffer_at(&scene, &hemi, at, &mut s, &mut exact);
-        let mut i = ImprovedEstimate::default();
-        est.improved_at(&scene, &grid, &src, at, &config(Mode::Improved), &mut s, &mut i);
+        let (_, i, exact) = improved_against_exact(&est, &scene, &grid, &src, at, &mut s);
         prop_assert_eq!(differing(&i.items, &exact), 0);
         prop_assert_eq!(i.real_rays, 0);
     }
@@ -201,18 +204,7 @@ fn zero_motion_on_a_mesh_locates_every_cell() {
             point: scene.patches()[src_patch as usize].center,
             polygon: b,
         };
-        let mut exact = ItemBuffer::default();
-        grid.item_buffer_at(&scene, &est_hemi, at, &mut s, &mut exact);
-        let mut i = ImprovedEstimate::default();
-        est.improved_at(
-            &scene,
-            &grid,
-            &src,
-            at,
-            &config(Mode::Improved),
-            &mut s,
-            &mut i,
-        );
+        let (_, i, exact) = improved_against_exact(&est, &scene, &grid, &src, at, &mut s);
         assert_eq!(differing(&i.items, &exact), 0, "{a} to {b}");
         assert_eq!(i.real_rays, 0, "{a} to {b}");
     }
