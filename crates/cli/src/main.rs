@@ -191,11 +191,12 @@ enum Command {
         #[arg(long, value_enum, default_value_t = SolverKind::GaussSeidel)]
         solver: SolverKind,
         /// Stop when max |E + rho F B - B| / max B is at most this (stored: default 1e-9);
-        /// matrix-free: when the largest unshot radiosity over the largest radiosity is
-        /// (default 1e-4)
+        /// matrix-free and out-of-core: when the largest unshot radiosity over the largest
+        /// radiosity is (default 1e-4)
         #[arg(long)]
         tolerance: Option<f64>,
-        /// Stop after this many sweeps (Gauss-Seidel, progressive) or shots (matrix-free)
+        /// Stop after this many sweeps (Gauss-Seidel, progressive) or shots (matrix-free,
+        /// out-of-core)
         /// even if not converged (the exit code is then 3). Default: 10,000,000.
         #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
         max_iterations: Option<u64>,
@@ -204,15 +205,22 @@ enum Command {
         #[arg(long)]
         raw: bool,
         /// How to hold the form factors: stored (every row made once, kept compact, made
-        /// reciprocal), matrix-free (progressive refinement making each shooter's row when
-        /// it shoots, keeping what the memory limit allows; exact rows only), or auto:
-        /// stored if an estimate from 64 sample rows fits --memory-limit, else matrix-free
+        /// reciprocal), out-of-core (every row made once and written compact to an unnamed
+        /// file in --temp-dir, then shot from there as matrix-free shoots), matrix-free
+        /// (progressive refinement making each shooter's row when it shoots, keeping what
+        /// the memory limit allows; exact rows only), or auto: stored if an estimate from
+        /// 64 sample rows fits --memory-limit, else out-of-core if the temporary folder has
+        /// room, else matrix-free
         #[arg(long, value_enum, default_value_t = StorageKind::Auto)]
         storage: StorageKind,
         /// Bytes the form factors may take (K, M, G suffixes: powers of 1024); the scene,
         /// the caster and per-patch arrays come on top
         #[arg(long, default_value = "1.5G")]
         memory_limit: String,
+        /// Where out-of-core solving writes its rows (an unnamed file: nothing is left
+        /// behind, however the run ends). Default: TMPDIR, else /tmp
+        #[arg(long)]
+        temp_dir: Option<PathBuf>,
         /// The solution file (atomically: all or nothing).
         #[arg(long)]
         out: PathBuf,
@@ -300,6 +308,7 @@ enum SolverKind {
 enum StorageKind {
     Auto,
     Stored,
+    OutOfCore,
     MatrixFree,
 }
 
@@ -584,6 +593,7 @@ fn run(cli: &Cli, ranks: &Ranks) -> Result<(), String> {
             raw,
             storage,
             memory_limit,
+            temp_dir,
             out,
         } => {
             let scene = load(scene)?;
@@ -595,6 +605,7 @@ fn run(cli: &Cli, ranks: &Ranks) -> Result<(), String> {
                 raw: *raw,
                 storage: *storage,
                 memory_limit: parse_bytes(memory_limit)?,
+                temp_dir: temp_dir.clone(),
             };
             solve(&scene, resolution, method, &how, out, ranks)
         }
@@ -1099,6 +1110,7 @@ struct How {
     raw: bool,
     storage: StorageKind,
     memory_limit: usize,
+    temp_dir: Option<PathBuf>,
 }
 
 /// Bytes from "123", "900M", "1.5G" (suffixes K, M, G, T: powers of 1024).
@@ -1140,6 +1152,30 @@ fn warn_if_nothing_emits(scene: &SceneFile) {
     }
 }
 
+/// What an out-of-core or matrix-free solve held and did.
+fn report_storage(solved: &rad_pipeline::solve::Solved, opts: &SolveOptions) {
+    if solved.matrix.storage == Storage::OutOfCore.name() {
+        say!(
+            "out-of-core: rows written to a temporary file in {} ({:.0} MiB, removed); {} shots, {} rows read back, {} kept ({:.0} MiB)",
+            opts.temp_dir().display(),
+            solved.matrix.disk_bytes as f64 / (1u64 << 20) as f64,
+            solved.solution.report.iterations,
+            solved.matrix.rows_made,
+            solved.matrix.cached_rows,
+            solved.matrix.bytes as f64 / (1u64 << 20) as f64
+        );
+    }
+    if solved.matrix.storage == Storage::MatrixFree.name() {
+        say!(
+            "matrix-free: {} shots, {} rows made, {} kept ({:.0} MiB)",
+            solved.solution.report.iterations,
+            solved.matrix.rows_made,
+            solved.matrix.cached_rows,
+            solved.matrix.bytes as f64 / (1u64 << 20) as f64
+        );
+    }
+}
+
 fn solve(
     scene: &SceneFile,
     resolution: &str,
@@ -1165,6 +1201,7 @@ fn solve(
         StorageKind::Auto => None,
         StorageKind::Stored => Some(Storage::Stored),
         StorageKind::MatrixFree => Some(Storage::MatrixFree),
+        StorageKind::OutOfCore => Some(Storage::OutOfCore),
     };
     let mut opts = SolveOptions {
         solver: match how.solver {
@@ -1175,6 +1212,7 @@ fn solve(
         reciprocal: !how.raw,
         storage,
         memory_limit: how.memory_limit,
+        temp_dir: how.temp_dir.clone(),
         ..SolveOptions::default()
     };
     if let Some(t) = how.tolerance {
@@ -1197,7 +1235,7 @@ fn solve(
             Progress::Rows(k) => {
                 bar.set_position(k as u64);
                 if k == n {
-                    bar.set_message(format!("rows done; solving ({})", opts.solver.name()));
+                    bar.set_message("rows done; solving");
                 }
             }
             Progress::Sweeps { sweeps, residual } => {
@@ -1206,7 +1244,7 @@ fn solve(
             Progress::Shots { shots, unshot } => {
                 bar.set_position((n as u64).min(shots as u64));
                 bar.set_message(format!(
-                    "matrix-free: {shots} shots, {:.2e} of the power unshot",
+                    "shooting: {shots} shots, {:.2e} of the power unshot",
                     unshot
                 ));
             }
@@ -1220,15 +1258,7 @@ fn solve(
         return Ok(());
     };
     report_estimates(method, &stats);
-    if solved.matrix.storage == Storage::MatrixFree.name() {
-        say!(
-            "matrix-free: {} shots, {} rows made, {} kept ({:.0} MiB)",
-            solved.solution.report.iterations,
-            solved.matrix.rows_made,
-            solved.matrix.cached_rows,
-            solved.matrix.bytes as f64 / (1u64 << 20) as f64
-        );
-    }
+    report_storage(&solved, &opts);
     if let Some(rec) = solved.reciprocity.filter(|r| !r.converged) {
         warn!(
             "warning: the reciprocal scaling stopped after {} products with rows off their sums by up to {:.1e}; energy is conserved only to that",

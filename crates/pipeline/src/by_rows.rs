@@ -82,6 +82,7 @@ pub(crate) fn solve_by_rows(
             bytes: totals[1] as usize,
             rows_made: n,
             cached_rows: 0,
+            disk_bytes: 0,
         },
     };
     if peers.rank() > 0 {

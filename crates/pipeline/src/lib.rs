@@ -9,6 +9,7 @@ pub mod images;
 pub mod matrix_file;
 mod method;
 pub mod output;
+pub mod row_file;
 mod parse;
 mod rows;
 mod scene_file;
@@ -32,7 +33,7 @@ pub use rad_solver::{Enclosure, SolveConfig, Solver};
 pub use rows::{rows, rows_streamed, rows_streamed_of, Rows, STREAM_CHUNK};
 pub(crate) use rows::{with_caster as rows_with_caster, CasterJob};
 pub use scene_file::SceneFile;
-pub use storage::{Progress, Storage, DEFAULT_MEMORY_LIMIT, MATRIX_FREE_BATCH};
+pub use storage::{OutOfCoreStats, Progress, Storage, DEFAULT_MEMORY_LIMIT, MATRIX_FREE_BATCH};
 
 use rad_accel::VoxelGridConfig;
 

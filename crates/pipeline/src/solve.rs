@@ -33,7 +33,7 @@ pub fn surfaces(scene: &Scene) -> Surfaces {
 }
 
 /// How to solve.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct SolveOptions {
     pub solver: Solver,
     pub config: SolveConfig,
@@ -50,6 +50,16 @@ pub struct SolveOptions {
     /// radiosity at most `tolerance` ([`MATRIX_FREE_TOLERANCE`] by default), or
     /// `max_iterations` shots.
     pub matrix_free: SolveConfig,
+    /// Where out-of-core solving writes its rows (an unnamed file, gone when the process
+    /// ends); `None`: the system's temporary folder (`TMPDIR`, else `/tmp`).
+    pub temp_dir: Option<std::path::PathBuf>,
+}
+
+impl SolveOptions {
+    /// The folder out-of-core solving writes to.
+    pub fn temp_dir(&self) -> std::path::PathBuf {
+        self.temp_dir.clone().unwrap_or_else(std::env::temp_dir)
+    }
 }
 
 /// The default stopping point of matrix-free solving (its measure: the largest unshot
@@ -68,6 +78,7 @@ impl Default for SolveOptions {
                 tolerance: MATRIX_FREE_TOLERANCE,
                 ..SolveConfig::default()
             },
+            temp_dir: None,
         }
     }
 }
@@ -94,12 +105,14 @@ pub struct Solved {
 }
 
 impl Solved {
-    /// A matrix-free run as a solve: its energy accounts, no reciprocal scaling.
-    fn matrix_free(
+    /// A matrix-free or out-of-core run as a solve: its energy accounts, no reciprocal
+    /// scaling; `disk_bytes`: the rows' file, if any.
+    fn shot(
+        storage: Storage,
         solution: Solution,
         m: rad_solver::MatrixFreeStats,
-        scaling_seconds: f64,
         solve_seconds: f64,
+        disk_bytes: u64,
     ) -> Solved {
         let balance = EnergyBalance {
             emitted: m.emitted,
@@ -112,14 +125,15 @@ impl Solved {
             reciprocity: None,
             balance,
             raw_balance: balance,
-            scaling_seconds,
+            scaling_seconds: 0.0,
             solve_seconds,
             matrix: MatrixJson {
-                storage: Storage::MatrixFree.name(),
+                storage: storage.name(),
                 pairs: 0,
                 bytes: m.cached_bytes,
                 rows_made: m.rows_made,
                 cached_rows: m.cached_rows,
+                disk_bytes,
             },
         }
     }
@@ -135,10 +149,12 @@ pub struct MatrixJson {
     /// Bytes of the rows as computed and of their reciprocal scaling, together (matrix
     /// free: of the rows kept for shooters that shoot again).
     pub bytes: usize,
-    /// Rows made (stored: one a patch; matrix-free: one a shot not served by the cache)
-    /// and rows kept at the end.
+    /// Rows made (stored: one a patch; matrix-free: one a shot not served by the cache;
+    /// out of core: rows read back from the file) and rows kept at the end.
     pub rows_made: usize,
     pub cached_rows: usize,
+    /// Bytes of the rows' temporary file (out of core; 0 otherwise).
+    pub disk_bytes: u64,
 }
 
 /// Solves `ff` (rows as computed) for `surfaces`: [`solve_pairs`] on the same values.
@@ -185,6 +201,7 @@ pub fn solve_pairs(
             storage: Storage::Stored.name(),
             rows_made: ff.n_patches(),
             cached_rows: 0,
+            disk_bytes: 0,
             pairs: ff.n_pairs(),
             bytes: ff.pattern_bytes()
                 + ff.heap_bytes()
@@ -231,7 +248,7 @@ impl SolverJson {
         let r = &s.solution.report;
         SolverJson {
             solver: r.solver.name(),
-            tolerance: if s.matrix.storage == Storage::MatrixFree.name() {
+            tolerance: if s.matrix.storage != Storage::Stored.name() {
                 opts.matrix_free.tolerance
             } else {
                 opts.config.tolerance
@@ -336,15 +353,20 @@ pub fn solve_scene_shared(
             crate::storage::check_by_rows(&scene.scene, hemi, method, limit, size)?;
             Storage::Stored
         }
-        None => crate::storage::choose(&scene.scene, hemi, method, opts.memory_limit)?,
+        None => {
+            // (Out of core is one process's: its rows go to its own disk.)
+            let temp = (peers.size() == 1).then(|| opts.temp_dir());
+            let limit = opts.memory_limit;
+            crate::storage::choose(&scene.scene, hemi, method, limit, temp.as_deref())?
+        }
     };
     if opts.solver == Solver::Jacobi {
-        if storage == Storage::MatrixFree {
+        if storage != Storage::Stored {
             return Err(Error::Parse {
                 what: "solver",
                 input: "jacobi".into(),
-                reason: "sweeps stored rows (--storage stored); matrix-free solving shoots, \
-                         by progressive refinement"
+                reason: "sweeps stored rows (--storage stored); matrix-free and out-of-core \
+                         solving shoot, by progressive refinement"
                     .into(),
             });
         }
@@ -364,7 +386,7 @@ pub fn solve_scene_shared(
         if peers.rank() > 0 {
             return Ok(None);
         }
-        let solved = Solved::matrix_free(solution, m, 0.0, t.elapsed().as_secs_f64());
+        let solved = Solved::shot(storage, solution, m, t.elapsed().as_secs_f64(), 0);
         check_finite(&solved)?;
         let stats = EstimateStats {
             exact: m.rows_made,
@@ -375,6 +397,9 @@ pub fn solve_scene_shared(
             solved,
             stats,
         )));
+    }
+    if storage == Storage::OutOfCore {
+        return solve_out_of_core(scene, hemi, method, opts, progress, peers);
     }
     let mut builder = PairBuilder::new(n);
     let rows_progress = |k| progress(Progress::Rows(k));
@@ -413,6 +438,39 @@ pub fn solve_scene_shared(
     check_finite(&solved)?;
     let file = solution_file(scene, hemi, method, opts, &solved, form_factors_seconds);
     Ok(Some((file, solved, stats)))
+}
+
+/// [`solve_scene_shared`] out of core ([`crate::storage::solve_out_of_core`]): one
+/// process only.
+fn solve_out_of_core(
+    scene: &SceneFile,
+    hemi: &Hemisphere,
+    method: RowMethod,
+    opts: &SolveOptions,
+    progress: &(dyn Fn(Progress) + Sync),
+    peers: &dyn crate::share::Peers,
+) -> Result<Option<(SolutionFile, Solved, EstimateStats)>, Error> {
+    let storage = Storage::OutOfCore;
+    if peers.size() > 1 {
+        return Err(Error::Parse {
+            what: "storage",
+            input: storage.name().into(),
+            reason: "out-of-core solving runs in one process (its rows go to that \
+                     process's disk); shared among processes, use --storage stored or \
+                     matrix-free"
+                .into(),
+        });
+    }
+    let surfaces = surfaces(&scene.scene);
+    let (solution, m, stats, out) =
+        crate::storage::solve_out_of_core(&scene.scene, hemi, method, &surfaces, opts, progress)?;
+    let solved = Solved::shot(storage, solution, m, out.shoot_seconds, out.file_bytes);
+    check_finite(&solved)?;
+    Ok(Some((
+        solution_file(scene, hemi, method, opts, &solved, out.rows_seconds),
+        solved,
+        stats,
+    )))
 }
 
 /// What processes sharing a solve must agree on besides the scene (for

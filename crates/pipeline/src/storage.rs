@@ -1,6 +1,7 @@
 //! How a solve holds its form factors: the stored pair matrix when it fits the memory
-//! limit, else matrix-free shooting (each shooter's row made when it shoots, kept while
-//! the limit allows), chosen from a sample of rows.
+//! limit; else out of core (every row made once and written compact to a temporary
+//! file, then shot from there); else matrix-free shooting (each shooter's row made when
+//! it shoots, kept while the limit allows): chosen from a sample of rows.
 
 use crate::share::Peers;
 use crate::{rows_with_caster, CasterJob, Error, RowMethod, Rows, STREAM_CHUNK};
@@ -8,6 +9,8 @@ use rad_core::PatchId;
 use rad_estimator::EstimateStats;
 use rad_geometry::Scene;
 use rad_hemisphere::{compute_rows, Caster, Hemisphere};
+use crate::row_file::{RowFile, FILE_BYTES_PER_ENTRY};
+use rayon::prelude::*;
 use rad_solver::{
     shoot_matrix_free, MatrixFreeConfig, MatrixFreeStats, ShotRow, Solution, Surfaces,
 };
@@ -36,6 +39,10 @@ pub enum Storage {
     Stored,
     /// No matrix: matrix-free progressive refinement (exact rows only).
     MatrixFree,
+    /// Every row made once (exact or estimated) and written compact to an unnamed
+    /// temporary file ([`crate::row_file::RowFile`]), then the matrix-free shooting read
+    /// from there (rows kept in memory while the limit allows). One process only.
+    OutOfCore,
 }
 
 impl Storage {
@@ -43,6 +50,7 @@ impl Storage {
         match self {
             Storage::Stored => "stored",
             Storage::MatrixFree => "matrix-free",
+            Storage::OutOfCore => "out-of-core",
         }
     }
 }
@@ -73,28 +81,53 @@ fn mib(bytes: f64) -> u64 {
 }
 
 /// The storage to use for `scene` by `method` within `limit` bytes: stored if its
-/// estimate (from [`SAMPLE_ROWS`] rows spread over the patches) fits, else matrix-free
-/// if the method is exact and its working set fits, else an error saying what would.
+/// estimate (from [`SAMPLE_ROWS`] rows spread over the patches) fits; else out of core
+/// if `temp` (the temporary folder, `None` in a run shared among processes) has room for
+/// the rows' file and the stream of rows fits the limit; else matrix-free if the method
+/// is exact and its working set fits; else an error saying what would.
 pub fn choose(
     scene: &Scene,
     hemi: &Hemisphere,
     method: RowMethod,
     limit: usize,
+    temp: Option<&std::path::Path>,
 ) -> Result<Storage, Error> {
     let n = scene.patches().len();
     let mean = mean_entries(scene, hemi, method)?;
     let stored = mean * n as f64 * STORED_BYTES_PER_ENTRY
-        + chunks_held(method) * (STREAM_CHUNK as f64) * mean * ROW_BYTES_PER_ENTRY
+        + stream_bytes(method, mean)
         + n as f64 * BYTES_PER_PATCH;
     if stored <= limit as f64 {
         return Ok(Storage::Stored);
     }
+    let file = mean * n as f64 * FILE_BYTES_PER_ENTRY;
+    let room = temp.map(|dir| crate::row_file::free_bytes(dir).map_or(f64::INFINITY, |b| b as f64));
+    let out_of_core = out_of_core_floor(n, method, mean);
+    if room.is_some_and(|room| 1.1 * file <= room) && out_of_core <= limit as f64 {
+        return Ok(Storage::OutOfCore);
+    }
     if !method.is_exact() {
+        let (what, need) = match room {
+            Some(room) if 1.1 * file > room => (
+                format!(
+                    "the rows of {n} patches (stored: {} MiB of memory; out of core: {} MiB of disk, {} MiB free in the temporary folder)",
+                    mib(stored),
+                    mib(file),
+                    mib(room)
+                ),
+                stored,
+            ),
+            Some(_) => (
+                format!("out-of-core solving of {n} patches"),
+                out_of_core,
+            ),
+            None => (format!("the stored rows of {n} patches"), stored),
+        };
         return Err(Error::MemoryLimit {
-            what: format!("the stored rows of {n} patches"),
-            need_mib: mib(stored),
+            what,
+            need_mib: mib(need),
             limit_mib: mib(limit as f64),
-            hint: "raise --memory-limit, or use --method exact, which can solve matrix-free",
+            hint: "raise --memory-limit, free disk space or name another --temp-dir, or use --method exact, which can solve matrix-free",
         });
     }
     let free = matrix_free_floor(n, mean);
@@ -107,6 +140,17 @@ pub fn choose(
         });
     }
     Ok(Storage::MatrixFree)
+}
+
+/// Bytes the rows being streamed take at most: the chunks held at a time.
+fn stream_bytes(method: RowMethod, mean_entries: f64) -> f64 {
+    chunks_held(method) * (STREAM_CHUNK as f64) * mean_entries * ROW_BYTES_PER_ENTRY
+}
+
+/// The least out-of-core solving needs: per-patch arrays, the file's index, and the
+/// stream of rows (then one batch of rows being shot, which is less).
+fn out_of_core_floor(n: usize, method: RowMethod, mean_entries: f64) -> f64 {
+    n as f64 * (BYTES_PER_PATCH + 12.0) + stream_bytes(method, mean_entries)
 }
 
 /// Bytes a row entry takes in a [`rad_solver::RowSet`], all told: 12, times the union
@@ -130,7 +174,7 @@ pub fn check_by_rows(
     let mean = mean_entries(scene, hemi, method)?;
     let share = mean * n as f64 / processes.max(1) as f64;
     let need = share * ROW_SET_BYTES_PER_ENTRY
-        + chunks_held(method) * (STREAM_CHUNK as f64) * mean * ROW_BYTES_PER_ENTRY
+        + stream_bytes(method, mean)
         + 2.0 * share * 12.0 / 8.0
         + n as f64 * BYTES_PER_PATCH;
     if need > limit as f64 {
@@ -212,7 +256,7 @@ pub(crate) fn solve_matrix_free(
                     rows,
                 })
             };
-            let mut rows = |ids: &[PatchId]| -> Result<Vec<ShotRow>, Error> {
+            let mut rows = |ids: &[PatchId], _: &mut Vec<ShotRow>| -> Result<Vec<ShotRow>, Error> {
                 let made = if self.peers.size() == 1 {
                     make(ids)?
                 } else {
@@ -252,6 +296,72 @@ pub(crate) fn solve_matrix_free(
             key: crate::solve::solve_key(hemi, method, opts),
         },
     )
+}
+
+/// What out-of-core solving wrote and did.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct OutOfCoreStats {
+    /// The rows' file: its bytes and entries.
+    pub file_bytes: u64,
+    pub entries: u64,
+    /// Seconds making and writing every row, then shooting.
+    pub rows_seconds: f64,
+    pub shoot_seconds: f64,
+}
+
+/// Out-of-core solving: every row of `scene` by `method` (exact or estimated) made once,
+/// streamed ([`crate::rows_streamed`]) into an unnamed temporary file in `temp`, then
+/// shot from there as matrix-free solving shoots ([`shoot_matrix_free`]: the same
+/// batches, the same answer whatever the threads; with exact rows, matrix-free solving's
+/// answer to the bit), rows kept in memory while the limit allows. The file is gone when
+/// this returns, or when the process ends however it ends.
+pub(crate) fn solve_out_of_core(
+    scene: &Scene,
+    hemi: &Hemisphere,
+    method: RowMethod,
+    surfaces: &Surfaces,
+    opts: &crate::solve::SolveOptions,
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Result<(Solution, MatrixFreeStats, EstimateStats, OutOfCoreStats), Error> {
+    let n = scene.patches().len();
+    let t = std::time::Instant::now();
+    let temp = opts.temp_dir();
+    let mut file = RowFile::create_in(&temp, n)?;
+    let rows_progress = |k| progress(Progress::Rows(k));
+    let stats = crate::rows_streamed(scene, hemi, method, &rows_progress, &mut |made| {
+        for r in &made.rows {
+            file.push(r.patch, &r.entries)?;
+        }
+        Ok(())
+    })?;
+    file.finish()?;
+    let mut out = OutOfCoreStats {
+        file_bytes: file.bytes(),
+        entries: file.entries(),
+        rows_seconds: t.elapsed().as_secs_f64(),
+        ..OutOfCoreStats::default()
+    };
+    let t = std::time::Instant::now();
+    let config = MatrixFreeConfig {
+        solve: opts.matrix_free,
+        batch: MATRIX_FREE_BATCH,
+        cache_bytes: (opts.memory_limit as f64 - n as f64 * (BYTES_PER_PATCH + 12.0)).max(0.0)
+            as usize,
+    };
+    let mut rows = |ids: &[PatchId], spare: &mut Vec<ShotRow>| -> Result<Vec<ShotRow>, Error> {
+        // (Into the storage of rows shot and dropped: fresh storage costs its pages.)
+        let reuse = spare.len().saturating_sub(ids.len());
+        let mut into: Vec<ShotRow> = spare.drain(reuse..).collect();
+        into.resize_with(ids.len(), ShotRow::default);
+        ids.par_iter()
+            .zip(into)
+            .map(|(&p, mut row)| file.read_into(p, &mut row).map(|()| row))
+            .collect()
+    };
+    let mut shots = |shots, unshot| progress(Progress::Shots { shots, unshot });
+    let (solution, m) = shoot_matrix_free(surfaces, &config, &mut rows, &mut shots)?;
+    out.shoot_seconds = t.elapsed().as_secs_f64();
+    Ok((solution, m, stats, out))
 }
 
 /// A row as shooting takes it: values rounded to `f32`, as the stored matrix holds them

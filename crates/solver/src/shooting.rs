@@ -17,9 +17,10 @@ pub struct ShotRow {
 }
 
 impl ShotRow {
-    /// Bytes it takes in the cache.
+    /// Bytes it takes in the cache (its storage, which a source that reuses rows may
+    /// have made larger than its entries need).
     fn bytes(&self) -> usize {
-        self.columns.len() * 8 + 64
+        self.columns.capacity() * 4 + self.values.capacity() * 4 + 64
     }
 }
 
@@ -57,7 +58,8 @@ pub struct MatrixFreeStats {
 
 /// Shoots to convergence without a matrix: the batch of patches of largest unshot power
 /// `A_i Σ_c ΔB_{i,c}` (ties to the lower index) have their rows made by `rows` (those
-/// not cached), then shoot one after the other in that order, each its unshot
+/// not cached; `rows` may take its rows' storage from the spare rows it is handed, rows
+/// shot and not kept, rather than allocate afresh), then shoot one after the other in that order, each its unshot
 /// radiosity at that moment, giving each `j` in its row `ρ_j F_ij ΔB_i A_i / A_j`
 /// (`F_ji` by reciprocity: the power that leaves `i` towards `j` arrives there, so
 /// energy is conserved whatever the rows' reciprocity error). `progress(shots, unshot)`
@@ -68,7 +70,7 @@ pub struct MatrixFreeStats {
 pub fn shoot_matrix_free<E: From<Error>>(
     surfaces: &Surfaces,
     config: &MatrixFreeConfig,
-    rows: &mut dyn FnMut(&[PatchId]) -> Result<Vec<ShotRow>, E>,
+    rows: &mut dyn FnMut(&[PatchId], &mut Vec<ShotRow>) -> Result<Vec<ShotRow>, E>,
     progress: &mut dyn FnMut(usize, f64),
 ) -> Result<(Solution, MatrixFreeStats), E> {
     let n = surfaces.area.len();
@@ -83,10 +85,14 @@ pub fn shoot_matrix_free<E: From<Error>>(
         .into());
     }
     let (area, rho) = (&surfaces.area, &surfaces.reflectance);
-    let mut b = surfaces.emission.clone();
-    let mut unshot = surfaces.emission.clone();
-    let mut power: Vec<f64> = (0..n)
-        .map(|i| area[i] * unshot[i].iter().sum::<f64>())
+    let mut shades: Vec<Shade> = (0..n)
+        .map(|i| Shade {
+            b: surfaces.emission[i],
+            unshot: surfaces.emission[i],
+            rho: rho[i],
+            area: area[i],
+            power: area[i] * surfaces.emission[i].iter().sum::<f64>(),
+        })
         .collect();
     let mut stats = MatrixFreeStats::default();
     for i in 0..n {
@@ -96,76 +102,72 @@ pub fn shoot_matrix_free<E: From<Error>>(
     }
     let total: f64 = stats.emitted.iter().sum();
     let mut cache: HashMap<PatchId, ShotRow> = HashMap::new();
+    let mut spare: Vec<ShotRow> = Vec::new();
     let mut order: Vec<usize> = (0..n).collect();
     let mut measure;
+    let mut sweep = Sweep::of(&shades);
     loop {
-        let max_b = b.iter().flatten().fold(0.0f64, |m, v| m.max(*v));
-        let max_unshot = unshot.iter().flatten().fold(0.0f64, |m, v| m.max(*v));
-        measure = if max_b > 0.0 { max_unshot / max_b } else { 0.0 };
+        measure = if sweep.max_b > 0.0 {
+            sweep.max_unshot / sweep.max_b
+        } else {
+            0.0
+        };
         if measure <= config.solve.tolerance || stats.shots >= config.solve.max_iterations {
             break;
         }
-        // The batch: largest power first, ties to the lower index.
         let k = config
             .batch
             .min(n)
             .min(config.solve.max_iterations - stats.shots);
-        let key = |&i: &usize| (std::cmp::Reverse(OrdF64(power[i])), i);
-        if k < n {
-            order.select_nth_unstable_by_key(k, key);
-        }
-        let mut batch: Vec<usize> = order[..k]
-            .iter()
-            .copied()
-            .filter(|&i| power[i] > 0.0)
-            .collect();
-        batch.sort_by_key(key);
+        let batch = next_batch(&mut order, &shades, k);
         let missing: Vec<PatchId> = batch
             .iter()
             .map(|&i| i as PatchId)
             .filter(|i| !cache.contains_key(i))
             .collect();
-        let made = rows(&missing)?;
+        let made = rows(&missing, &mut spare)?;
+        if made.len() != missing.len() {
+            return Err(Error::RowSet {
+                reason: format!(
+                    "{} rows asked of the source to shoot, {} given",
+                    missing.len(),
+                    made.len()
+                ),
+            }
+            .into());
+        }
         stats.rows_made += made.len();
-        let mut fresh: HashMap<PatchId, ShotRow> = missing.into_iter().zip(made).collect();
+        let mut fresh: HashMap<PatchId, ShotRow> =
+            missing.iter().copied().zip(made).collect();
         for &i in &batch {
             let id = i as PatchId;
             let row = cache
                 .get(&id)
                 .or_else(|| fresh.get(&id))
                 .expect("made above");
-            shoot_one(
-                i,
-                row,
-                surfaces,
-                &mut b,
-                &mut unshot,
-                &mut power,
-                &mut stats,
-            );
+            shoot_one(i, row, &mut shades, &mut stats)?;
         }
-        for (id, row) in fresh.drain() {
+        // (Kept in the batch's order, so that the rows asked for later, and so those a
+        // run shared among processes asks for, do not depend on a map's order.)
+        for id in missing {
+            let row = fresh.remove(&id).expect("made above");
             if stats.cached_bytes + row.bytes() <= config.cache_bytes {
                 stats.cached_bytes += row.bytes();
                 cache.insert(id, row);
+            } else if spare.len() < config.batch {
+                spare.push(row);
             }
         }
-        let left: f64 = power.iter().sum();
-        progress(stats.shots, if total > 0.0 { left / total } else { 0.0 });
+        sweep = Sweep::of(&shades);
+        progress(
+            stats.shots,
+            if total > 0.0 { sweep.power / total } else { 0.0 },
+        );
     }
     stats.cached_rows = cache.len();
-    for i in 0..n {
-        for c in 0..3 {
-            stats.unshot[c] += area[i] * unshot[i][c];
-        }
-    }
-    stats.relative_imbalance = (0..3)
-        .filter(|&c| stats.emitted[c] > 0.0)
-        .map(|c| {
-            (stats.emitted[c] - stats.absorbed[c] - stats.escaped[c] - stats.unshot[c]).abs()
-                / stats.emitted[c]
-        })
-        .fold(0.0, f64::max);
+    close_accounts(&mut stats, &shades);
+    let b: Vec<[f64; 3]> = shades.iter().map(|s| s.b).collect();
+    let unshot: Vec<[f64; 3]> = shades.iter().map(|s| s.unshot).collect();
     let ambient = crate::solve::ambient_term(area, rho, &unshot);
     Ok((
         Solution {
@@ -182,41 +184,177 @@ pub fn shoot_matrix_free<E: From<Error>>(
     ))
 }
 
-/// Patch `i` shoots its unshot radiosity along `row`.
+/// Entries a part of a shot takes: a shooter's row is cut into parts of this many
+/// entries, shot in parallel (each part's patches are its own: the columns increase);
+/// fixed, so that the energy sums, added part by part in order, do not depend on the
+/// thread count.
+const SHOT_PART: usize = 4096;
+/// Parts a shot has at least to be shot in parallel.
+const PARALLEL_PARTS: usize = 4;
+
+/// The power left unshot, and the relative imbalance of the energy accounts.
+fn close_accounts(stats: &mut MatrixFreeStats, shades: &[Shade]) {
+    for s in shades {
+        for c in 0..3 {
+            stats.unshot[c] += s.area * s.unshot[c];
+        }
+    }
+    stats.relative_imbalance = (0..3)
+        .filter(|&c| stats.emitted[c] > 0.0)
+        .map(|c| {
+            (stats.emitted[c] - stats.absorbed[c] - stats.escaped[c] - stats.unshot[c]).abs()
+                / stats.emitted[c]
+        })
+        .fold(0.0, f64::max);
+}
+
+/// The next `k` shooters (those with unshot power): largest power first, ties to the
+/// lower index.
+fn next_batch(order: &mut [usize], shades: &[Shade], k: usize) -> Vec<usize> {
+    let key = |&i: &usize| (std::cmp::Reverse(OrdF64(shades[i].power)), i);
+    if k < order.len() {
+        order.select_nth_unstable_by_key(k, key);
+    }
+    let mut batch: Vec<usize> = order[..k]
+        .iter()
+        .copied()
+        .filter(|&i| shades[i].power > 0.0)
+        .collect();
+    batch.sort_by_key(key);
+    batch
+}
+
+/// A patch as shooting reads and updates it, in one place (two cache lines at most: a
+/// shot touches one patch per entry of its row, scattered over the scene).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+struct Shade {
+    b: [f64; 3],
+    unshot: [f64; 3],
+    rho: [f64; 3],
+    area: f64,
+    /// `A Σ_c ΔB_c`.
+    power: f64,
+}
+
+/// What a pass over the patches finds after a batch: the largest radiosity and unshot
+/// radiosity (the stopping measure), and the unshot power (summed in patch order).
+struct Sweep {
+    max_b: f64,
+    max_unshot: f64,
+    power: f64,
+}
+
+impl Sweep {
+    fn of(shades: &[Shade]) -> Sweep {
+        let mut s = Sweep {
+            max_b: 0.0,
+            max_unshot: 0.0,
+            power: 0.0,
+        };
+        for p in shades {
+            for c in 0..3 {
+                s.max_b = s.max_b.max(p.b[c]);
+                s.max_unshot = s.max_unshot.max(p.unshot[c]);
+            }
+            s.power += p.power;
+        }
+        s
+    }
+}
+
+/// Patch `i` shoots its unshot radiosity along `row` (checked: columns increasing and
+/// below the patch count, one value each).
 fn shoot_one(
     i: usize,
     row: &ShotRow,
-    surfaces: &Surfaces,
-    b: &mut [[f64; 3]],
-    unshot: &mut [[f64; 3]],
-    power: &mut [f64],
+    shades: &mut [Shade],
     stats: &mut MatrixFreeStats,
-) {
-    let (area, rho) = (&surfaces.area, &surfaces.reflectance);
-    let shot = unshot[i];
-    unshot[i] = [0.0; 3];
-    power[i] = 0.0;
+) -> Result<(), Error> {
+    use rayon::prelude::*;
+    let n = shades.len();
+    let columns = &row.columns;
+    let increasing = columns.windows(2).all(|w| w[0] < w[1]);
+    // (Increasing, the last column is the largest.)
+    let last = if increasing {
+        columns.last()
+    } else {
+        columns.iter().max()
+    };
+    if let Some(&bad) = last.filter(|&&j| j as usize >= n) {
+        return Err(Error::EntryOutOfRange {
+            row: i as PatchId,
+            column: bad,
+            n_patches: n,
+        });
+    }
+    if !increasing || row.values.len() != columns.len() {
+        return Err(Error::RowSet {
+            reason: format!(
+                "the row of patch {i} to shoot has {} columns{} and {} values",
+                columns.len(),
+                if increasing { "" } else { " not increasing" },
+                row.values.len()
+            ),
+        });
+    }
+    let shot = shades[i].unshot;
+    shades[i].unshot = [0.0; 3];
+    shades[i].power = 0.0;
     stats.shots += 1;
-    let mut sum = 0.0;
-    for (&j, &f) in row.columns.iter().zip(&row.values) {
-        let j = j as usize;
-        let f = f as f64;
-        sum += f;
-        let k = f * area[i] / area[j];
-        let mut add_power = 0.0;
-        for c in 0..3 {
-            let arriving = k * shot[c];
-            let d = rho[j][c] * arriving;
-            stats.absorbed[c] += area[j] * (arriving - d);
-            b[j][c] += d;
-            unshot[j][c] += d;
-            add_power += d;
+    let area_i = shades[i].area;
+    // Each part with the patches from its first column to the next part's first.
+    let m = columns.len();
+    let mut parts = Vec::with_capacity(m.div_ceil(SHOT_PART));
+    let mut rest = shades;
+    let mut base = 0usize;
+    for start in (0..m).step_by(SHOT_PART) {
+        let end = (start + SHOT_PART).min(m);
+        let split = if end < m { columns[end] as usize } else { n };
+        let (head, tail) = std::mem::take(&mut rest).split_at_mut(split - base);
+        parts.push((start..end, base, head));
+        (rest, base) = (tail, split);
+    }
+    let shoot = |(range, base, shades): (std::ops::Range<usize>, usize, &mut [Shade])| {
+        let mut absorbed = [0.0f64; 3];
+        let mut sum = 0.0;
+        for k in range {
+            let j = columns[k] as usize;
+            let f = row.values[k] as f64;
+            sum += f;
+            let p = &mut shades[j - base];
+            let kf = f * area_i / p.area;
+            let mut add_power = 0.0;
+            for c in 0..3 {
+                let arriving = kf * shot[c];
+                let d = p.rho[c] * arriving;
+                absorbed[c] += p.area * (arriving - d);
+                p.b[c] += d;
+                p.unshot[c] += d;
+                add_power += d;
+            }
+            p.power += p.area * add_power;
         }
-        power[j] += area[j] * add_power;
+        (absorbed, sum)
+    };
+    // (In parallel only when there is enough to share: waking a thread for a short row
+    // costs more than it saves. The sums are the same either way.)
+    let sums: Vec<([f64; 3], f64)> = if parts.len() >= PARALLEL_PARTS {
+        parts.into_par_iter().map(shoot).collect()
+    } else {
+        parts.into_iter().map(shoot).collect()
+    };
+    let mut sum = 0.0;
+    for (absorbed, part_sum) in sums {
+        for c in 0..3 {
+            stats.absorbed[c] += absorbed[c];
+        }
+        sum += part_sum;
     }
     for c in 0..3 {
-        stats.escaped[c] += area[i] * shot[c] * (1.0 - sum);
+        stats.escaped[c] += area_i * shot[c] * (1.0 - sum);
     }
+    Ok(())
 }
 
 /// `f64` ordered by `total_cmp` (powers are finite and >= 0).

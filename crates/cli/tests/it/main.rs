@@ -1336,6 +1336,62 @@ fn a_full_disk_is_a_clear_error_that_keeps_the_old_file() {
 }
 
 #[test]
+fn out_of_core_with_a_full_disk_or_no_temporary_folder_is_a_clear_error() {
+    // Out-of-core solving writes its rows to an unnamed temporary file: a disk that
+    // fills (the file-size limit, as above) or a temporary folder that does not exist
+    // is an error naming the folder, with no output and nothing left in the folder.
+    let dir = tempfile::tempdir().unwrap();
+    let temp = dir.path().join("temp");
+    std::fs::create_dir(&temp).unwrap();
+    let loft = bench_scene("loft.json");
+    let out = dir.path().join("out.json");
+    let args = |temp: &Path| -> Vec<String> {
+        [
+            "solve",
+            loft.to_str().unwrap(),
+            "--resolution",
+            "6x24",
+            "--storage",
+            "out-of-core",
+            "--temp-dir",
+            temp.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]
+        .map(str::to_string)
+        .to_vec()
+    };
+    let run = Command::new("/bin/sh")
+        .arg("-c")
+        .arg("trap '' XFSZ; ulimit -f 8; exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_coherad"))
+        .args(args(&temp))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("cannot write a temporary file in")
+            && err.contains(temp.to_str().unwrap())
+            && err.contains("too large"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    assert_eq!(std::fs::read_dir(&temp).unwrap().count(), 0);
+    let missing = dir.path().join("no-such-folder");
+    let a = args(&missing);
+    let run = coherad(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("cannot create a temporary file in") && err.contains("no-such-folder"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
+
+#[test]
 fn unwritable_output_folders_are_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     let cube = bench_scene("cube.json");

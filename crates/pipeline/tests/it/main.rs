@@ -242,34 +242,132 @@ fn matrix_free_agrees_with_the_stored_solve_and_not_the_threads() {
 }
 
 #[test]
+fn out_of_core_is_matrix_free_shooting_to_the_bit_and_leaves_nothing() {
+    let scene = loft();
+    let hemi = Hemisphere::new(HemisphereConfig::exact(12, 48)).unwrap();
+    let exact = RowMethod::Exact {
+        caster: CasterKind::Scan,
+    };
+    let temp = tempfile::tempdir().unwrap();
+    let run = |storage, method, threads, limit| {
+        let opts = SolveOptions {
+            storage: Some(storage),
+            memory_limit: limit,
+            temp_dir: Some(temp.path().to_path_buf()),
+            ..SolveOptions::default()
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| solve_scene(&scene, &hemi, method, &opts, &|_| {}).unwrap())
+    };
+    let (_, free, _) = run(Storage::MatrixFree, exact, 2, DEFAULT_MEMORY_LIMIT);
+    let (file, a, _) = run(Storage::OutOfCore, exact, 2, DEFAULT_MEMORY_LIMIT);
+    let (_, b, _) = run(Storage::OutOfCore, exact, 1, 4 << 20);
+    assert_eq!(file.matrix.storage, "out-of-core");
+    assert!(file.matrix.disk_bytes > 0);
+    // The same rows (f32), the same shots: matrix-free solving's answer to the bit,
+    // whatever the threads and the rows kept in memory.
+    assert_eq!(a.solution.radiosity, free.solution.radiosity);
+    assert_eq!(b.solution.radiosity, free.solution.radiosity);
+    assert!(b.matrix.cached_rows < a.matrix.cached_rows);
+    assert!(a.solution.report.converged);
+    assert!(a.balance.relative_imbalance < 1e-9, "{:?}", a.balance);
+    // Estimated rows go out of core too (matrix-free cannot make them): the very shots
+    // of the same rows held in memory.
+    let estimated = RowMethod::Estimated {
+        mode: Mode::Improved,
+        centres: CasterKind::Scan,
+    };
+    let (_, e, stats) = run(Storage::OutOfCore, estimated, 2, DEFAULT_MEMORY_LIMIT);
+    assert!(stats.estimated > stats.exact, "{stats:?}");
+    assert!(e.balance.relative_imbalance < 1e-9, "{:?}", e.balance);
+    let held = all_rows(&scene.scene, &hemi, estimated).rows;
+    let config = rad_solver::MatrixFreeConfig {
+        solve: SolveOptions::default().matrix_free,
+        batch: rad_pipeline::MATRIX_FREE_BATCH,
+        cache_bytes: 0,
+    };
+    let mut shot_rows = |ids: &[u32],
+                         _: &mut Vec<rad_solver::ShotRow>|
+     -> Result<Vec<rad_solver::ShotRow>, rad_solver::Error> {
+        Ok(ids
+            .iter()
+            .map(|&p| rad_solver::ShotRow {
+                columns: held[p as usize].entries.iter().map(|e| e.0).collect(),
+                values: held[p as usize].entries.iter().map(|e| e.1 as f32).collect(),
+            })
+            .collect())
+    };
+    let surf = surfaces(&scene.scene);
+    let (want, _) =
+        rad_solver::shoot_matrix_free(&surf, &config, &mut shot_rows, &mut |_, _| {}).unwrap();
+    assert_eq!(e.solution.radiosity, want.radiosity);
+    // Nothing is left in the temporary folder.
+    assert_eq!(std::fs::read_dir(temp.path()).unwrap().count(), 0);
+    // A temporary folder that does not exist is named.
+    let opts = SolveOptions {
+        storage: Some(Storage::OutOfCore),
+        temp_dir: Some(temp.path().join("no/such")),
+        ..SolveOptions::default()
+    };
+    let e = solve_scene(&scene, &hemi, exact, &opts, &|_| {})
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("cannot create a temporary file in") && e.contains("no/such"),
+        "{e}"
+    );
+}
+
+#[test]
 fn memory_limit_chooses_the_storage_and_refuses_what_fits_nothing() {
     let scene = loft();
     let hemi = Hemisphere::new(HemisphereConfig::exact(6, 24)).unwrap();
     let exact = RowMethod::Exact {
         caster: CasterKind::Scan,
     };
+    let temp = tempfile::tempdir().unwrap();
     let run = |method, limit| {
         let opts = SolveOptions {
             memory_limit: limit,
+            temp_dir: Some(temp.path().to_path_buf()),
             ..SolveOptions::default()
         };
         solve_scene(&scene, &hemi, method, &opts, &|_| {})
     };
     let (big, _, _) = run(exact, DEFAULT_MEMORY_LIMIT).unwrap();
     assert_eq!(big.matrix.storage, "stored");
+    // Too small to store: out of core (the temporary folder has room), whatever the
+    // method.
     let (small, _, _) = run(exact, 6 << 20).unwrap();
-    assert_eq!(small.matrix.storage, "matrix-free");
+    assert_eq!(small.matrix.storage, "out-of-core");
     let estimated = RowMethod::Estimated {
         mode: Mode::Improved,
         centres: CasterKind::Scan,
     };
+    let (small, _, _) = run(estimated, 10 << 20).unwrap();
+    assert_eq!(small.matrix.storage, "out-of-core");
     for (method, limit, want) in [
         (exact, 1 << 20, "matrix-free solving of 14400 patches"),
-        (estimated, 6 << 20, "use --method exact"),
+        (estimated, 1 << 20, "out-of-core solving of 14400 patches"),
     ] {
         let e = run(method, limit).unwrap_err().to_string();
         assert!(e.contains(want) && e.contains("memory limit"), "{e}");
     }
+    // Shared among processes (no temporary folder of one's own), matrix-free.
+    let shared = rad_pipeline::share::in_threads(2, |peers| {
+        let opts = SolveOptions {
+            memory_limit: 6 << 20,
+            ..SolveOptions::default()
+        };
+        rad_pipeline::solve::solve_scene_shared(&scene, &hemi, exact, &opts, &|_| {}, peers)
+            .map(|s| s.map(|(file, _, _)| file.matrix.storage))
+            .map_err(|e| e.to_string())
+    });
+    assert_eq!(shared[0].clone().unwrap().unwrap(), "matrix-free");
     // Jacobi, shared by rows: each process's share must fit the limit; more processes
     // need less each.
     let jacobi = |limit, processes| {

@@ -41,7 +41,7 @@ fn matrix_free_shooting_solves_the_system_and_conserves_energy() {
                 batch,
                 cache_bytes,
             },
-            &mut |ids| {
+            &mut |ids, _| {
                 asked += ids.len();
                 Ok(ids.iter().map(|&i| row_of(&ff, i)).collect())
             },
@@ -81,12 +81,12 @@ fn matrix_free_refuses_a_zero_batch_and_passes_source_errors_on() {
         batch,
         cache_bytes: 0,
     };
-    let err = shoot_matrix_free::<Error>(&s, &cfg(0), &mut |_| Ok(vec![]), &mut |_, _| {});
+    let err = shoot_matrix_free::<Error>(&s, &cfg(0), &mut |_, _| Ok(vec![]), &mut |_, _| {});
     assert!(matches!(err, Err(Error::BadConfig { what: "batch", .. })));
     let err = shoot_matrix_free::<Error>(
         &s,
         &cfg(4),
-        &mut |_| {
+        &mut |_, _| {
             Err(Error::MissingRow {
                 patch: 9,
                 n_patches: 5,
