@@ -18,22 +18,25 @@ fn luminance(b: [f64; 3]) -> f64 {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let [coarse, coarse_sol, fine, fine_sol] = &args[..] else {
-        return Err("usage: coarse_agreement COARSE.json COARSE_SOL.json FINE.json FINE_SOL.json".into());
+        return Err(
+            "usage: coarse_agreement COARSE.json COARSE_SOL.json FINE.json FINE_SOL.json".into(),
+        );
     };
     let coarse = SceneFile::load(coarse.as_ref(), None)?;
     let fine = SceneFile::load(fine.as_ref(), None)?;
-    let shown = |path: &str, scene: &SceneFile| -> Result<Vec<[f64; 3]>, Box<dyn std::error::Error>> {
-        let b = read_solution(path.as_ref(), scene)?;
-        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path)?)?;
-        let ambient: [f64; 3] = serde_json::from_value(json["ambient"].clone())?;
-        Ok(b.iter()
-            .enumerate()
-            .map(|(i, b)| {
-                let rho = scene.scene.patch_material(i as u32).reflectance.0;
-                std::array::from_fn(|c| b[c] + rho[c] * ambient[c])
-            })
-            .collect())
-    };
+    let shown =
+        |path: &str, scene: &SceneFile| -> Result<Vec<[f64; 3]>, Box<dyn std::error::Error>> {
+            let b = read_solution(path.as_ref(), scene)?;
+            let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path)?)?;
+            let ambient: [f64; 3] = serde_json::from_value(json["ambient"].clone())?;
+            Ok(b.iter()
+                .enumerate()
+                .map(|(i, b)| {
+                    let rho = scene.scene.patch_material(i as u32).reflectance.0;
+                    std::array::from_fn(|c| b[c] + rho[c] * ambient[c])
+                })
+                .collect())
+        };
     let bc = shown(coarse_sol, &coarse)?;
     let bf = shown(fine_sol, &fine)?;
     let polys = coarse.scene.polygons();
@@ -51,12 +54,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut unplaced = 0usize;
     for (p, b) in fine.scene.patches().iter().zip(&bf) {
         let home = polys.iter().position(|q| {
-            q.normal().dot(p.normal) > 0.999
-                && q.plane_num(p.center).abs() <= 1e-4 * scale
-                && {
-                    let (u, v) = q.uv(p.center);
-                    q.contains_uv(u, v)
-                }
+            q.normal().dot(p.normal) > 0.999 && q.plane_num(p.center).abs() <= 1e-4 * scale && {
+                let (u, v) = q.uv(p.center);
+                q.contains_uv(u, v)
+            }
         });
         let Some(k) = home else {
             unplaced += 1;

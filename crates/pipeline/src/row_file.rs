@@ -305,7 +305,10 @@ mod tests {
                 want.iter().map(|e| e.1 as f32).collect::<Vec<_>>()
             );
         }
-        assert_eq!(f.entries(), (0..300).map(|p| row(p).len() as u64).sum::<u64>());
+        assert_eq!(
+            f.entries(),
+            (0..300).map(|p| row(p).len() as u64).sum::<u64>()
+        );
     }
 
     #[test]

@@ -3,17 +3,17 @@
 //! file, then shot from there); else matrix-free shooting (each shooter's row made when
 //! it shoots, kept while the limit allows): chosen from a sample of rows.
 
+use crate::row_file::{RowFile, FILE_BYTES_PER_ENTRY};
 use crate::share::Peers;
 use crate::{rows_with_caster, CasterJob, Error, RowMethod, Rows, STREAM_CHUNK};
 use rad_core::PatchId;
 use rad_estimator::EstimateStats;
 use rad_geometry::Scene;
 use rad_hemisphere::{compute_rows, Caster, Hemisphere};
-use crate::row_file::{RowFile, FILE_BYTES_PER_ENTRY};
-use rayon::prelude::*;
 use rad_solver::{
     shoot_matrix_free, MatrixFreeConfig, MatrixFreeStats, ShotRow, Solution, Surfaces,
 };
+use rayon::prelude::*;
 
 /// The default of `--memory-limit`: 1.5 GiB for the form factors, so that a solve
 /// (scene, caster and per-patch arrays on top) stays within 2 GiB on a 100k-patch mesh.

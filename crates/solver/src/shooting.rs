@@ -137,8 +137,7 @@ pub fn shoot_matrix_free<E: From<Error>>(
             .into());
         }
         stats.rows_made += made.len();
-        let mut fresh: HashMap<PatchId, ShotRow> =
-            missing.iter().copied().zip(made).collect();
+        let mut fresh: HashMap<PatchId, ShotRow> = missing.iter().copied().zip(made).collect();
         for &i in &batch {
             let id = i as PatchId;
             let row = cache
@@ -161,7 +160,11 @@ pub fn shoot_matrix_free<E: From<Error>>(
         sweep = Sweep::of(&shades);
         progress(
             stats.shots,
-            if total > 0.0 { sweep.power / total } else { 0.0 },
+            if total > 0.0 {
+                sweep.power / total
+            } else {
+                0.0
+            },
         );
     }
     stats.cached_rows = cache.len();

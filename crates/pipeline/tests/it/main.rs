@@ -296,7 +296,11 @@ fn out_of_core_is_matrix_free_shooting_to_the_bit_and_leaves_nothing() {
             .iter()
             .map(|&p| rad_solver::ShotRow {
                 columns: held[p as usize].entries.iter().map(|e| e.0).collect(),
-                values: held[p as usize].entries.iter().map(|e| e.1 as f32).collect(),
+                values: held[p as usize]
+                    .entries
+                    .iter()
+                    .map(|e| e.1 as f32)
+                    .collect(),
             })
             .collect())
     };
