@@ -244,7 +244,7 @@ fn matrix_free_agrees_with_the_stored_solve_and_not_the_threads() {
 #[test]
 fn out_of_core_is_matrix_free_shooting_to_the_bit_and_leaves_nothing() {
     let scene = loft();
-    let hemi = Hemisphere::new(HemisphereConfig::exact(12, 48)).unwrap();
+    let hemi = Hemisphere::new(HemisphereConfig::exact(8, 32)).unwrap();
     let exact = RowMethod::Exact {
         caster: CasterKind::Scan,
     };
