@@ -76,6 +76,8 @@ pub enum Error {
         b_name: String,
         area: f64,
     },
+    #[error("the scene divided by its largest coordinate ({unit:e}), which its rows are made from so that they do not depend on its scale, fails: {message}")]
+    Divided { unit: f64, message: String },
     #[error("the scene has no polygons")]
     Empty,
     #[error("the scene has {count} patches, over the limit of {limit}")]

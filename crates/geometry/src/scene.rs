@@ -3,7 +3,7 @@
 use crate::error::{Error, PolygonProblem};
 use crate::hit_test::OriginTerms;
 use crate::polygon::{Patch, Polygon};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rad_core::{Hit, PatchId, PolygonId, Ray, Rgb};
 
 /// Largest number of patches a scene may have.
@@ -22,7 +22,8 @@ pub struct Material {
 pub enum PatchGrid {
     /// Exactly `nu × nv` cells.
     Cells { nu: u64, nv: u64 },
-    /// Cells about `size` long on each edge: `nu = max(1, round(|e_u| / size))`, same for v.
+    /// Cells about `size` long on each edge: `nu = max(1, round(|e_u| / size))`, same for v
+    /// (halves, and sides within a millionth below a half, rounded up).
     Size(f64),
 }
 
@@ -65,7 +66,10 @@ impl Camera {
 #[derive(Clone, Debug, PartialEq)]
 pub struct PolygonDesc {
     pub name: String,
-    pub vertices: Vec<Vec3>,
+    /// As given, in f64. The scene's polygons hold them rounded to f32; its rows are
+    /// made from them divided by the scene's largest coordinate first
+    /// ([`Scene::for_rows`]), so that rows do not depend on the scene's scale.
+    pub vertices: Vec<DVec3>,
     /// Index into [`SceneDesc::materials`].
     pub material: usize,
     pub grid: PatchGrid,
@@ -108,11 +112,18 @@ pub struct Scene {
     edges: std::sync::OnceLock<crate::EdgeNeighbours>,
     /// Its facets, made on first use.
     facets: std::sync::OnceLock<crate::Facets>,
+    /// Where the largest coordinate is not a power of two: the description divided by
+    /// it (patch grids as this scene cut them), and the scene it makes, on first use
+    /// ([`Scene::for_rows`]).
+    unit_desc: Option<(f64, Box<SceneDesc>)>,
+    unit_scene: std::sync::OnceLock<Result<Box<Scene>, String>>,
 }
 
 impl Scene {
     /// Validates a description and builds every polygon's patch texture.
     pub fn new(desc: SceneDesc) -> Result<Scene, Error> {
+        // (Kept before validation: the polygons below are built from its vertices.)
+        let unit_desc = divided(&desc);
         check_materials(&desc.materials)?;
         if desc.polygons.is_empty() {
             return Err(Error::Empty);
@@ -176,7 +187,7 @@ impl Scene {
             obstructions.push(pd.obstruction);
             let mut built = Polygon::build(
                 pd.name,
-                pd.vertices,
+                rounded(&pd.vertices),
                 pd.material as u32,
                 nu,
                 nv,
@@ -196,18 +207,7 @@ impl Scene {
             }));
             polygons.push(built.polygon);
         }
-        let front_only = if polygons.iter().any(Polygon::front_only) {
-            let reach = |p: &Polygon| {
-                if p.front_only() {
-                    p.reach()
-                } else {
-                    f32::NEG_INFINITY
-                }
-            };
-            polygons.iter().map(reach).collect()
-        } else {
-            Vec::new()
-        };
+        let front_only = front_only_reaches(&polygons);
         let extent = (hi - lo).length() as f64;
         if let Some((a, b, area)) = crate::overlap::find_overlap(&polygons, extent) {
             return Err(Error::Overlap {
@@ -218,6 +218,7 @@ impl Scene {
                 area,
             });
         }
+        let unit_desc = unit_desc.map(|(unit, d)| (unit, cut_alike(d, &polygons)));
         Ok(Scene {
             polygons,
             patches,
@@ -229,7 +230,48 @@ impl Scene {
             front_only,
             edges: std::sync::OnceLock::new(),
             facets: std::sync::OnceLock::new(),
+            unit_desc,
+            unit_scene: std::sync::OnceLock::new(),
         })
+    }
+
+    /// The scene rows are made from: this scene divided by its largest coordinate (in
+    /// f64, from the vertices as described, then rounded to f32), made on the first
+    /// call; this scene itself where that coordinate is a power of two (dividing by one
+    /// changes no f32 operation of the ray tests but by that power). Its polygons and
+    /// patches are this scene's, numbered alike; only its lengths differ. Form factors
+    /// are ratios of lengths, and a scene scaled by any factor divides into the same
+    /// f32 coordinates (but where the f64 quotient lies within a few units of its last
+    /// place of an f32 rounding boundary): so the rows made from it are the same
+    /// whatever the scene's scale, where the scene's own f32 coordinates would round
+    /// differently at each scale and move the cells whose rays pass within rounding of
+    /// an edge.
+    pub fn for_rows(&self) -> Result<&Scene, Error> {
+        let Some((unit, desc)) = &self.unit_desc else {
+            return Ok(self);
+        };
+        let made = self.unit_scene.get_or_init(|| {
+            let scene = Scene::new((**desc).clone()).map_err(|e| e.to_string())?;
+            let alike = scene.patches.len() == self.patches.len()
+                && scene.polygons.len() == self.polygons.len()
+                && scene
+                    .polygons
+                    .iter()
+                    .zip(&self.polygons)
+                    .all(|(a, b)| a.grid() == b.grid() && a.first_patch() == b.first_patch());
+            if alike {
+                Ok(Box::new(scene))
+            } else {
+                Err("its patches are not the scene's".to_string())
+            }
+        });
+        match made {
+            Ok(scene) => Ok(scene),
+            Err(message) => Err(Error::Divided {
+                unit: *unit,
+                message: message.clone(),
+            }),
+        }
     }
 
     pub fn polygons(&self) -> &[Polygon] {
@@ -341,6 +383,88 @@ fn check_materials(materials: &[Material]) -> Result<(), Error> {
     Ok(())
 }
 
+/// Each polygon's [`Polygon::reach`] if it is front-only, else −∞; empty when none is
+/// ([`Scene::seen`]'s table).
+fn front_only_reaches(polygons: &[Polygon]) -> Vec<f32> {
+    if !polygons.iter().any(Polygon::front_only) {
+        return Vec::new();
+    }
+    let reach = |p: &Polygon| {
+        if p.front_only() {
+            p.reach()
+        } else {
+            f32::NEG_INFINITY
+        }
+    };
+    polygons.iter().map(reach).collect()
+}
+
+/// A polygon's described vertices rounded to f32, as its polygon holds them.
+pub(crate) fn rounded(vertices: &[DVec3]) -> Vec<Vec3> {
+    vertices.iter().map(|v| v.as_vec3()).collect()
+}
+
+/// The largest magnitude of a described coordinate (NaN where one is NaN).
+fn largest_coordinate(desc: &SceneDesc) -> f64 {
+    desc.polygons
+        .iter()
+        .flat_map(|p| &p.vertices)
+        .map(|v| v.abs().max_element())
+        .fold(0.0, |m, x| {
+            if x.is_nan() || m.is_nan() {
+                f64::NAN
+            } else {
+                m.max(x)
+            }
+        })
+}
+
+/// Whether `x` (finite, > 0) is a power of two.
+fn is_power_of_two(x: f64) -> bool {
+    x.is_normal() && x.to_bits() & ((1u64 << 52) - 1) == 0
+}
+
+/// Where `desc`'s largest coordinate is finite, positive and not a power of two: it,
+/// and `desc` with every vertex divided by it, without what rows do not use (names,
+/// groups, the camera: a large mesh's names are a good part of its description).
+fn divided(desc: &SceneDesc) -> Option<(f64, Box<SceneDesc>)> {
+    let unit = largest_coordinate(desc);
+    if !(unit.is_finite() && unit > 0.0) || is_power_of_two(unit) {
+        return None;
+    }
+    let polygons = desc
+        .polygons
+        .iter()
+        .map(|p| PolygonDesc {
+            name: String::new(),
+            vertices: p.vertices.iter().map(|&v| v / unit).collect(),
+            group: None,
+            ..*p
+        })
+        .collect();
+    Some((
+        unit,
+        Box::new(SceneDesc {
+            materials: desc.materials.clone(),
+            polygons,
+            camera: None,
+        }),
+    ))
+}
+
+/// `divided` with each described polygon cut as `polygons` (the scene's, the described
+/// ones first) are.
+fn cut_alike(mut divided: Box<SceneDesc>, polygons: &[Polygon]) -> Box<SceneDesc> {
+    for (pd, p) in divided.polygons.iter_mut().zip(polygons) {
+        let (nu, nv) = p.grid();
+        pd.grid = PatchGrid::Cells {
+            nu: u64::from(nu),
+            nv: u64::from(nv),
+        };
+    }
+    divided
+}
+
 /// The back side of a two-sided polygon: its vertices in reverse order (the first
 /// kept), named `NAME:back`, in group `GROUP:back`, its patch grid turned to match the
 /// front's cells where its texture's u runs along the front's v (as for a triangle or
@@ -354,7 +478,7 @@ fn back_side(pd: &PolygonDesc) -> PolygonDesc {
         PatchGrid::Cells { nu, nv } => {
             // Swapped where the back's u runs along the front's v (by direction, not
             // length: a square's sides are equal).
-            let sides = |v: &[Vec3]| crate::polygon::texture_sides(v);
+            let sides = |v: &[DVec3]| crate::polygon::texture_sides(&rounded(v));
             let swapped = match (sides(&pd.vertices), sides(&vertices)) {
                 (Some((fu, _)), Some((bu, bv))) => {
                     let along =
@@ -397,11 +521,16 @@ fn grid_cells(pd: &PolygonDesc) -> Result<(u64, u64), PolygonProblem> {
             }
             // The sides of the polygon's (u, v) frame (invalid vertices get one cell:
             // the polygon's own checks then name their problem).
-            let Some((lu, lv)) = crate::polygon::texture_side_lengths(&pd.vertices) else {
+            let Some((lu, lv)) = crate::polygon::texture_side_lengths(&rounded(&pd.vertices))
+            else {
                 return Ok((1, 1));
             };
+            // (Rounded half up, and up within a millionth below a half: the f32 sides
+            // of a scene scaled by a factor that is not a power of two round differently,
+            // and a side of one and a half cells would otherwise be cut in one or two
+            // at different scales.)
             let cells = |l: f64| {
-                let c = (l / size).round();
+                let c = (l / size * (1.0 + 1e-6) + 0.5).floor();
                 if c.is_finite() {
                     (c as u64).max(1)
                 } else {

@@ -18,6 +18,15 @@ use crate::scene::{Material, PatchGrid, PolygonDesc};
 use glam::Vec3;
 use rad_core::Rgb;
 
+/// A vertex built in f32 as a scene file written from it gives it (the f64 of the
+/// shortest decimal that reads back as that f32: 0.02, not 0.0199999995529651): so a
+/// built scene and its committed file are the same description, to the divided scene
+/// rows are made from ([`crate::Scene::for_rows`]).
+pub fn as_written(v: Vec3) -> glam::DVec3 {
+    let decimal = |c: f32| c.to_string().parse::<f64>().unwrap_or(f64::from(c));
+    glam::DVec3::new(decimal(v.x), decimal(v.y), decimal(v.z))
+}
+
 /// A parallelogram `o, o+e_u, o+e_u+e_v, o+e_v`; its normal is `e_u × e_v`.
 pub(crate) fn rect(
     name: impl Into<String>,
@@ -29,7 +38,9 @@ pub(crate) fn rect(
 ) -> PolygonDesc {
     PolygonDesc {
         name: name.into(),
-        vertices: vec![o, o + e_u, o + e_u + e_v, o + e_v],
+        vertices: [o, o + e_u, o + e_u + e_v, o + e_v]
+            .map(as_written)
+            .to_vec(),
         material,
         grid,
         group: None,

@@ -4,7 +4,7 @@
 
 use crate::error::PolygonProblem;
 use crate::polygon::vertices_problem;
-use crate::scene::{PatchGrid, PolygonDesc, SceneDesc};
+use crate::scene::{rounded, PatchGrid, PolygonDesc, SceneDesc};
 use glam::{DVec2, DVec3, Vec3};
 
 /// What [`triangulate`] did.
@@ -39,14 +39,18 @@ pub fn triangulate(desc: &mut SceneDesc) -> Triangulation {
         }
     };
     for mut face in faces {
-        face.vertices.dedup();
-        while face.vertices.len() > 1 && face.vertices.first() == face.vertices.last() {
+        // (Repeats as the polygon would hold them, in f32.)
+        let same = |a: &DVec3, b: &DVec3| a.as_vec3() == b.as_vec3();
+        face.vertices.dedup_by(|a, b| same(a, b));
+        while face.vertices.len() > 1
+            && same(&face.vertices[0], &face.vertices[face.vertices.len() - 1])
+        {
             face.vertices.pop();
         }
-        match vertices_problem(&face.vertices) {
+        match vertices_problem(&rounded(&face.vertices)) {
             None => out.push(face),
             Some(PolygonProblem::NonConvex { .. } | PolygonProblem::NonPlanar { .. }) => {
-                let Some(triangles) = ear_clip(&face.vertices) else {
+                let Some(triangles) = ear_clip(&rounded(&face.vertices)) else {
                     discard(
                         &mut report,
                         &face.name,
@@ -59,7 +63,7 @@ pub fn triangulate(desc: &mut SceneDesc) -> Triangulation {
                 for (k, [a, b, c]) in triangles.into_iter().enumerate() {
                     let vertices = vec![face.vertices[a], face.vertices[b], face.vertices[c]];
                     let name = format!("{}/tri {k}", face.name);
-                    if let Some(problem) = vertices_problem(&vertices) {
+                    if let Some(problem) = vertices_problem(&rounded(&vertices)) {
                         discard(&mut report, &name, problem.to_string());
                         continue;
                     }
@@ -90,7 +94,7 @@ fn split_grid(face: &PolygonDesc) -> PatchGrid {
     match face.grid {
         PatchGrid::Size(s) => PatchGrid::Size(s),
         PatchGrid::Cells { nu, nv } => {
-            let area = 0.5 * newell(&face.vertices).length();
+            let area = 0.5 * newell(&rounded(&face.vertices)).length();
             PatchGrid::Size((area / nu.max(1).saturating_mul(nv.max(1)) as f64).sqrt())
         }
     }
@@ -232,7 +236,7 @@ mod tests {
                 .enumerate()
                 .map(|(k, vertices)| PolygonDesc {
                     name: format!("face {k}"),
-                    vertices,
+                    vertices: vertices.iter().map(|v| v.as_dvec3()).collect(),
                     material: 0,
                     grid: PatchGrid::Size(0.25),
                     group: Some("g".into()),
@@ -265,11 +269,11 @@ mod tests {
         let mut d = desc(vec![ell()]);
         let report = triangulate(&mut d);
         assert_eq!((report.split, report.triangles, report.dropped), (1, 4, 0));
-        let total: f64 = d.polygons.iter().map(|p| area(&p.vertices)).sum();
+        let total: f64 = d.polygons.iter().map(|p| area(&rounded(&p.vertices))).sum();
         assert!((total - 3.0).abs() < 1e-12, "{total}");
         for p in &d.polygons {
             assert!(
-                newell(&p.vertices).z > 0.0,
+                newell(&rounded(&p.vertices)).z > 0.0,
                 "{} turns the wrong way",
                 p.name
             );

@@ -33,7 +33,6 @@ pub fn rows(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Rows, Error> {
     struct Job<'a> {
-        scene: &'a Scene,
         hemi: &'a Hemisphere,
         method: RowMethod,
         patches: &'a [PatchId],
@@ -41,10 +40,10 @@ pub fn rows(
     }
     impl CasterJob for Job<'_> {
         type Out = Rows;
-        fn run<C: Caster>(self, caster: &C) -> Result<Rows, Error> {
-            let schedule = schedule_for(self.scene, self.method);
+        fn run<C: Caster>(self, scene: &Scene, caster: &C) -> Result<Rows, Error> {
+            let schedule = schedule_for(scene, self.method);
             let made = rows_with(
-                self.scene,
+                scene,
                 caster,
                 self.hemi,
                 self.method,
@@ -60,7 +59,6 @@ pub fn rows(
         scene,
         method.caster(),
         Job {
-            scene,
             hemi,
             method,
             patches,
@@ -103,7 +101,6 @@ pub fn rows_streamed_of(
     sink: &mut (dyn FnMut(Rows) -> Result<(), Error> + Send),
 ) -> Result<EstimateStats, Error> {
     struct Job<'a, 'b> {
-        scene: &'a Scene,
         hemi: &'a Hemisphere,
         method: RowMethod,
         patches: &'a [PatchId],
@@ -112,14 +109,14 @@ pub fn rows_streamed_of(
     }
     impl CasterJob for Job<'_, '_> {
         type Out = EstimateStats;
-        fn run<C: Caster>(self, caster: &C) -> Result<EstimateStats, Error> {
+        fn run<C: Caster>(self, scene: &Scene, caster: &C) -> Result<EstimateStats, Error> {
             let mut stats = EstimateStats::default();
-            let schedule = schedule_for(self.scene, self.method);
-            let chunks = chunks_of(self.scene, self.patches);
+            let schedule = schedule_for(scene, self.method);
+            let chunks = chunks_of(scene, self.patches);
             let sink = self.sink;
             let ahead = schedule
                 .as_ref()
-                .map(|_| std::sync::Mutex::new(Ahead::new(self.scene, self.patches)));
+                .map(|_| std::sync::Mutex::new(Ahead::new(scene, self.patches)));
             for_each_chunk(
                 &chunks,
                 |r| {
@@ -129,11 +126,11 @@ pub fn rows_streamed_of(
                     let made = match (&schedule, &ahead) {
                         (Some(schedule), Some(ahead)) => {
                             let mut ahead = ahead.lock().unwrap_or_else(|e| e.into_inner());
-                            let job = (self.scene, self.hemi, self.method, schedule);
+                            let job = (scene, self.hemi, self.method, schedule);
                             ahead.chunk(caster, job, r.clone(), &progress)?
                         }
                         _ => rows_with(
-                            self.scene,
+                            scene,
                             caster,
                             self.hemi,
                             self.method,
@@ -157,7 +154,6 @@ pub fn rows_streamed_of(
         scene,
         method.caster(),
         Job {
-            scene,
             hemi,
             method,
             patches,
@@ -314,23 +310,28 @@ fn chunks_of(scene: &Scene, patches: &[PatchId]) -> Vec<std::ops::Range<usize>> 
     out
 }
 
-/// Work to do with whichever caster a method names, built once.
+/// Work to do with whichever caster a method names, built once, for the scene rows are
+/// made from.
 pub(crate) trait CasterJob {
     type Out;
-    fn run<C: Caster>(self, caster: &C) -> Result<Self::Out, Error>;
+    /// `scene` is the scene rows are made from ([`Scene::for_rows`]: the job's scene
+    /// divided by its largest coordinate), `caster` built for it.
+    fn run<C: Caster>(self, scene: &Scene, caster: &C) -> Result<Self::Out, Error>;
 }
 
-/// Builds the caster `kind` names for `scene` and runs `job` with it: the one place
-/// names become casters.
+/// Builds the caster `kind` names for the scene `scene`'s rows are made from
+/// ([`Scene::for_rows`], so that they do not depend on its scale) and runs `job` with
+/// both: the one place names become casters.
 pub(crate) fn with_caster<J: CasterJob>(
     scene: &Scene,
     kind: CasterKind,
     job: J,
 ) -> Result<J::Out, Error> {
+    let scene = scene.for_rows()?;
     match kind {
-        CasterKind::Scan => job.run(&Scan),
-        CasterKind::Grid => job.run(&VoxelGrid::build(scene, &default_grid())?),
-        CasterKind::Hierarchy => job.run(&Hierarchy::new(scene)),
+        CasterKind::Scan => job.run(scene, &Scan),
+        CasterKind::Grid => job.run(scene, &VoxelGrid::build(scene, &default_grid())?),
+        CasterKind::Hierarchy => job.run(scene, &Hierarchy::new(scene)),
     }
 }
 

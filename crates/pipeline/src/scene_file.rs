@@ -156,7 +156,7 @@ mod tests {
         assert_ne!(base, fingerprint(&Scene::new(lit).unwrap()), "emission");
         let mut moved = cube(2);
         for v in &mut moved.polygons[0].vertices {
-            *v += glam::Vec3::splat(1e-3);
+            *v += glam::DVec3::splat(1e-3);
         }
         assert_ne!(base, fingerprint(&Scene::new(moved).unwrap()), "vertices");
     }

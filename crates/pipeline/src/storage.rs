@@ -242,8 +242,7 @@ pub(crate) fn solve_matrix_free(
     }
     impl CasterJob for Job<'_> {
         type Out = (Solution, MatrixFreeStats);
-        fn run<C: Caster>(self, caster: &C) -> Result<Self::Out, Error> {
-            let scene = &self.scene.scene;
+        fn run<C: Caster>(self, scene: &Scene, caster: &C) -> Result<Self::Out, Error> {
             let mut make = |ids: &[PatchId]| -> Result<Rows, Error> {
                 let rows = compute_rows(scene, caster, self.hemi, ids, &|_| {})?;
                 Ok(Rows {

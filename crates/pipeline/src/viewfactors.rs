@@ -251,7 +251,6 @@ fn for_each_row(
     sink: &mut (dyn FnMut(&Row) -> Result<(), Error> + Send),
 ) -> Result<(), Error> {
     struct Job<'a, 'g> {
-        scene: &'a Scene,
         hemi: &'a Hemisphere,
         origins: u32,
         progress: &'a (dyn Fn(usize) + Sync),
@@ -259,19 +258,18 @@ fn for_each_row(
     }
     impl CasterJob for Job<'_, '_> {
         type Out = ();
-        fn run<C: Caster>(self, caster: &C) -> Result<(), Error> {
-            let chunks = stream_chunks(self.scene);
+        fn run<C: Caster>(self, scene: &Scene, caster: &C) -> Result<(), Error> {
+            let chunks = stream_chunks(scene);
             let sink = self.sink;
             for_each_chunk(
                 &chunks,
                 |r| {
                     let (mut patches, progress) = chunk_patches(r, self.progress);
-                    let scene = self.scene;
                     patches.retain(|&p| {
                         !scene.is_obstruction(scene.patches()[p as usize].polygon as usize)
                     });
                     let rows = compute_area_rows(
-                        self.scene,
+                        scene,
                         caster,
                         self.hemi,
                         &patches,
@@ -289,7 +287,6 @@ fn for_each_row(
         scene,
         opts.caster,
         Job {
-            scene,
             hemi,
             origins: opts.origins,
             progress,
@@ -421,7 +418,6 @@ pub fn area_rows(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Vec<Row>, Error> {
     struct Job<'a> {
-        scene: &'a Scene,
         hemi: &'a Hemisphere,
         origins: u32,
         patches: &'a [PatchId],
@@ -429,9 +425,9 @@ pub fn area_rows(
     }
     impl CasterJob for Job<'_> {
         type Out = Vec<Row>;
-        fn run<C: Caster>(self, caster: &C) -> Result<Vec<Row>, Error> {
+        fn run<C: Caster>(self, scene: &Scene, caster: &C) -> Result<Vec<Row>, Error> {
             let rows = compute_area_rows(
-                self.scene,
+                scene,
                 caster,
                 self.hemi,
                 self.patches,
@@ -443,7 +439,6 @@ pub fn area_rows(
         }
     }
     let job = Job {
-        scene,
         hemi,
         origins: opts.origins,
         patches,

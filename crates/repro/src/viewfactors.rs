@@ -18,7 +18,7 @@ use std::time::Instant;
 fn polygon(name: &str, vertices: Vec<Vec3>, grid: PatchGrid) -> PolygonDesc {
     PolygonDesc {
         name: name.into(),
-        vertices,
+        vertices: vertices.iter().map(|v| v.as_dvec3()).collect(),
         material: 0,
         grid,
         group: None,

@@ -7,7 +7,7 @@
 //! syntax check. No coverage
 //! feedback: deterministic for a seed, so a finding replays.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rad_geometry::file::{
     apply_material_text, gltf_from_bytes, obj_from_bytes, ply_from_bytes, scene_desc_from_json,
     scene_desc_to_json, stl_from_bytes, vs3_from_text,
@@ -226,10 +226,10 @@ fn cells_bound(desc: &SceneDesc) -> f64 {
             rad_geometry::PatchGrid::Cells { nu, nv } => nu as f64 * nv as f64,
             rad_geometry::PatchGrid::Size(size) => {
                 let (lo, hi) = p.vertices.iter().fold(
-                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                    (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
                     |(lo, hi), v| (lo.min(*v), hi.max(*v)),
                 );
-                let d = f64::from((hi - lo).length());
+                let d = (hi - lo).length();
                 let c = (2.0 * d / size + 2.0).powi(2);
                 if c.is_nan() {
                     1.0
@@ -283,7 +283,7 @@ fn seed_triangles() -> Vec<[Vec3; 3]> {
         .iter()
         .filter(|p| p.vertices.len() == 3)
         .take(6)
-        .map(|p| [p.vertices[0], p.vertices[1], p.vertices[2]])
+        .map(|p| [0, 1, 2].map(|k| p.vertices[k].as_vec3()))
         .collect()
 }
 

@@ -71,7 +71,7 @@ pub fn convex_polygon(idx: usize) -> impl Strategy<Value = PolygonDesc> {
     ];
     (centre, shape, 1u64..4, 1u64..4).prop_map(move |(c, pts, nu, nv)| PolygonDesc {
         name: format!("random {idx}"),
-        vertices: pts.into_iter().map(|p: Vec3| p + c).collect(),
+        vertices: pts.into_iter().map(|p: Vec3| (p + c).as_dvec3()).collect(),
         material: 0,
         grid: PatchGrid::Cells { nu, nv },
         group: None,

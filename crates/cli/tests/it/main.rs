@@ -424,6 +424,10 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 /// `coherad formfactors` writes the same bytes as it did before the caster interface
 /// and the pipeline crate (hashes stored from the binary at 4538061), for exact rows
 /// through both casters and estimated rows in both modes with centres through both.
+/// The loft's were stored again when rows came to be made from the scene divided by
+/// its largest coordinate (12; issue 19): 30 of 8,294,400 cells of 64 hemispheres see
+/// another patch, one cell's 1.2e-5 at most (`cargo run --release -p rad-hemisphere
+/// --example divided_rows`); the unit cube's, divided by 1, are the same bytes.
 #[test]
 fn form_factor_files_keep_their_stored_hashes() {
     let cases = [
@@ -440,18 +444,18 @@ fn form_factor_files_keep_their_stored_hashes() {
             "estimated/improved",
             0x026d_9ad2_3ba8_957e,
         ),
-        ("loft.json", "0-1499", "exact", 0x66d9_41ed_9b38_3e19),
+        ("loft.json", "0-1499", "exact", 0x3d2e_142e_736f_7ee8),
         (
             "loft.json",
             "0-1499",
             "estimated/faithful",
-            0x187f_4383_f8c9_b192,
+            0xcf48_c2d3_2cb2_dc39,
         ),
         (
             "loft.json",
             "0-1499",
             "estimated/improved",
-            0x5af7_5c35_3b76_f686,
+            0x3f2e_db8e_4b6b_e7fe,
         ),
     ];
     for (scene, patches, method, want) in cases {

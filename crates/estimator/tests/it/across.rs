@@ -35,9 +35,9 @@ fn split_floor(turns: [usize; 2]) -> SceneDesc {
     let mut b = vec![p(0.0, 0.0), p(1.0, 1.0), p(1.0, 0.0)];
     a.rotate_left(turns[0]);
     b.rotate_left(turns[1]);
-    let triangle = |name: &str, vertices| PolygonDesc {
+    let triangle = |name: &str, vertices: Vec<glam::Vec3>| PolygonDesc {
         name: name.into(),
-        vertices,
+        vertices: vertices.iter().map(|v| v.as_dvec3()).collect(),
         material: 0,
         grid: PatchGrid::Cells { nu: 1, nv: 1 },
         group: None,
@@ -55,7 +55,7 @@ fn mesh_cube(n: usize) -> SceneDesc {
     let mut desc = cube(1);
     let faces = std::mem::take(&mut desc.polygons);
     for face in faces {
-        let [o, a, _, b] = [0, 1, 2, 3].map(|k| face.vertices[k]);
+        let [o, a, _, b] = [0, 1, 2, 3].map(|k| face.vertices[k].as_vec3());
         let (ea, eb) = ((a - o) / n as f32, (b - o) / n as f32);
         for i in 0..n {
             for j in 0..n {
@@ -66,7 +66,7 @@ fn mesh_cube(n: usize) -> SceneDesc {
                 {
                     desc.polygons.push(PolygonDesc {
                         name: format!("{} {i} {j} {k}", face.name),
-                        vertices: tri.to_vec(),
+                        vertices: tri.map(glam::Vec3::as_dvec3).to_vec(),
                         grid: PatchGrid::Cells { nu: 1, nv: 1 },
                         ..face.clone()
                     });

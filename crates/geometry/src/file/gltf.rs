@@ -429,20 +429,19 @@ fn add_mesh(
             None => default,
         };
         for (k, t) in triangles.iter().enumerate() {
-            let mut vertices = t
-                .iter()
-                .map(|&i| {
-                    positions
-                        .get(i as usize)
-                        .copied()
-                        .ok_or(Error::IndexOutOfRange {
-                            index_kind: "vertex",
-                            index: i64::from(i),
-                            len: positions.len(),
-                            place: format!("{} {place} triangle {k}", path.display()),
-                        })
-                })
-                .collect::<Result<Vec<_>, _>>()?;
+            let mut vertices =
+                t.iter()
+                    .map(|&i| {
+                        positions.get(i as usize).map(|p| p.as_dvec3()).ok_or(
+                            Error::IndexOutOfRange {
+                                index_kind: "vertex",
+                                index: i64::from(i),
+                                len: positions.len(),
+                                place: format!("{} {place} triangle {k}", path.display()),
+                            },
+                        )
+                    })
+                    .collect::<Result<Vec<_>, _>>()?;
             if flip {
                 vertices.swap(1, 2);
             }

@@ -2,7 +2,7 @@
 
 use crate::error::{Error, PolygonProblem};
 use crate::scene::{Camera, Material, PatchGrid, PolygonDesc, SceneDesc};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rad_core::Rgb;
 use serde::{Deserialize, Serialize};
 
@@ -72,12 +72,19 @@ fn vec3(a: [f64; 3]) -> Vec3 {
     Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32)
 }
 
-fn arr(v: Vec3) -> [f64; 3] {
-    // Round-trip f32 exactly through its shortest decimal form.
+fn arr(v: DVec3) -> [f64; 3] {
     v.to_array().map(|c| {
-        c.to_string()
-            .parse::<f64>()
-            .expect("a float formats as a float")
+        // A value that is an f32 (as a scene built in f32 gives) through its shortest
+        // decimal form as an f32, which reads back as that f32; any other as an f64's:
+        // both round-trip exactly.
+        let f = c as f32;
+        if f64::from(f) == c {
+            f.to_string()
+                .parse::<f64>()
+                .expect("a float formats as a float")
+        } else {
+            c
+        }
     })
 }
 
@@ -121,8 +128,8 @@ pub fn scene_desc_from_json(
                     name: p.material.clone(),
                 })
             })?;
-        let vertices: Vec<Vec3> = match (&p.vertices, &p.indices) {
-            (Some(v), None) => v.iter().copied().map(vec3).collect(),
+        let vertices: Vec<DVec3> = match (&p.vertices, &p.indices) {
+            (Some(v), None) => v.iter().copied().map(DVec3::from_array).collect(),
             (None, Some(ix)) => ix
                 .iter()
                 .map(|&i| {
@@ -130,7 +137,7 @@ pub fn scene_desc_from_json(
                         .ok()
                         .and_then(|u| file.vertices.get(u))
                         .copied()
-                        .map(vec3)
+                        .map(DVec3::from_array)
                         .ok_or_else(|| Error::IndexOutOfRange {
                             index_kind: "vertex",
                             index: i,
@@ -226,7 +233,7 @@ pub fn scene_desc_to_json(desc: &SceneDesc, description: Option<&str>) -> String
 /// shared vertex list (each distinct vertex once) with polygons by `indices`, without
 /// names (a polygon is then named by its index), one vertex or polygon a line.
 pub fn scene_desc_to_json_indexed(desc: &SceneDesc, description: Option<&str>) -> String {
-    let mut index: std::collections::HashMap<[u32; 3], usize> = Default::default();
+    let mut index: std::collections::HashMap<[u64; 3], usize> = Default::default();
     let mut vertices: Vec<[f64; 3]> = Vec::new();
     let mut polygons = Vec::with_capacity(desc.polygons.len());
     for p in &desc.polygons {
@@ -235,7 +242,7 @@ pub fn scene_desc_to_json_indexed(desc: &SceneDesc, description: Option<&str>) -
             .iter()
             .map(|v| {
                 *index
-                    .entry(v.to_array().map(f32::to_bits))
+                    .entry(v.to_array().map(f64::to_bits))
                     .or_insert_with(|| {
                         vertices.push(arr(*v));
                         vertices.len() - 1
@@ -297,9 +304,9 @@ fn file_materials(desc: &SceneDesc) -> Vec<FileMaterial> {
 
 fn file_camera(desc: &SceneDesc) -> Option<FileCamera> {
     desc.camera.map(|c| FileCamera {
-        position: arr(c.position),
-        look_at: arr(c.look_at),
-        up: arr(c.up),
+        position: arr(c.position.as_dvec3()),
+        look_at: arr(c.look_at.as_dvec3()),
+        up: arr(c.up.as_dvec3()),
         fov_y_deg: (c.fov_y as f64).to_degrees(),
     })
 }

@@ -122,10 +122,8 @@ pub fn apply_material_text(
                 }
             }
             (None, Some(bounds)) => {
-                let inside = |v: &glam::Vec3| {
-                    (0..3).all(|i| {
-                        bounds.min[i] <= f64::from(v[i]) && f64::from(v[i]) <= bounds.max[i]
-                    })
+                let inside = |v: &glam::DVec3| {
+                    (0..3).all(|i| bounds.min[i] <= v[i] && v[i] <= bounds.max[i])
                 };
                 for p in desc
                     .polygons

@@ -5,7 +5,7 @@
 
 use crate::error::Error;
 use crate::scene::{Material, PatchGrid, PolygonDesc, SceneDesc};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rad_core::Rgb;
 use std::path::Path;
 
@@ -33,7 +33,7 @@ impl MeshBuilder {
         }
     }
 
-    pub fn face(&mut self, name: String, vertices: Vec<Vec3>, material: usize, group: &str) {
+    pub fn face(&mut self, name: String, vertices: Vec<DVec3>, material: usize, group: &str) {
         self.desc.polygons.push(PolygonDesc {
             name,
             vertices,
@@ -119,7 +119,7 @@ pub fn stl_from_bytes(
         for (k, rec) in bytes[84..].chunks_exact(50).enumerate() {
             let f = |i: usize| f32::from_le_bytes([rec[i], rec[i + 1], rec[i + 2], rec[i + 3]]);
             let vertices = (0..3)
-                .map(|v| Vec3::new(f(12 + 12 * v), f(16 + 12 * v), f(20 + 12 * v)))
+                .map(|v| Vec3::new(f(12 + 12 * v), f(16 + 12 * v), f(20 + 12 * v)).as_dvec3())
                 .collect();
             mesh.face(format!("{group}/facet {k}"), vertices, 0, &group);
         }
@@ -134,7 +134,11 @@ pub fn stl_from_bytes(
         .map_err(|e| mesh_err(path, "STL", format!("cannot parse ASCII STL: {e}")))?;
     for (k, tri) in triangles.enumerate() {
         let tri = tri.map_err(|e| mesh_err(path, "STL", format!("facet {k}: {e}")))?;
-        let vertices = tri.vertices.iter().map(|v| Vec3::from_array(v.0)).collect();
+        let vertices = tri
+            .vertices
+            .iter()
+            .map(|v| Vec3::from_array(v.0).as_dvec3())
+            .collect();
         mesh.face(format!("{group}/facet {k}"), vertices, 0, &group);
     }
     Ok(mesh.desc)
@@ -349,8 +353,7 @@ pub fn ply_from_bytes(
                 usize::try_from(i)
                     .ok()
                     .and_then(|i| vertices.get(i))
-                    .map(|v| v.p.map(|c| c as f32))
-                    .map(Vec3::from_array)
+                    .map(|v| DVec3::from_array(v.p))
                     .ok_or(Error::IndexOutOfRange {
                         index_kind: "vertex",
                         index: i,

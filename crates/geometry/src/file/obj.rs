@@ -3,7 +3,7 @@
 
 use crate::error::Error;
 use crate::scene::{Material, PatchGrid, PolygonDesc, SceneDesc};
-use glam::Vec3;
+use glam::DVec3;
 use rad_core::Rgb;
 use std::path::Path;
 
@@ -120,7 +120,7 @@ fn obj_desc(
                     let i = i as usize;
                     mesh.positions
                         .get(3 * i..3 * i + 3)
-                        .map(|p| Vec3::new(p[0], p[1], p[2]))
+                        .map(|p| DVec3::new(p[0], p[1], p[2]))
                         .ok_or_else(|| Error::IndexOutOfRange {
                             index_kind: "vertex",
                             index: i as i64,

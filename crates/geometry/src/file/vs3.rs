@@ -11,7 +11,7 @@
 
 use crate::error::Error;
 use crate::scene::{Material, PatchGrid, PolygonDesc, SceneDesc};
-use glam::Vec3;
+use glam::DVec3;
 use rad_core::Rgb;
 use std::path::Path;
 
@@ -49,7 +49,7 @@ pub fn load_vs3(path: &Path, patch_size: Option<f64>) -> Result<(SceneDesc, View
 struct Surface {
     number: usize,
     line: usize,
-    vertices: Vec<Vec3>,
+    vertices: Vec<DVec3>,
     cmb: usize,
     emit: f64,
     name: String,
@@ -62,7 +62,7 @@ pub fn vs3_from_text(
     patch_size: Option<f64>,
 ) -> Result<(SceneDesc, View3dControl), (usize, String)> {
     let mut control = View3dControl::default();
-    let mut vertices: Vec<Vec3> = Vec::new();
+    let mut vertices: Vec<DVec3> = Vec::new();
     let mut surfaces: Vec<Surface> = Vec::new();
     let mut obstructions: Vec<Surface> = Vec::new();
     let mut ended = false;
@@ -96,7 +96,7 @@ pub fn vs3_from_text(
                 if v[0] as usize != vertices.len() + 1 || v[0].fract() != 0.0 {
                     return Err(err(format!("vertex {} out of sequence (expected {})", v[0], vertices.len() + 1)));
                 }
-                vertices.push(Vec3::new(v[1] as f32, v[2] as f32, v[3] as f32));
+                vertices.push(DVec3::new(v[1], v[2], v[3]));
             }
             Some('S') | Some('O') => {
                 let is_s = kind == Some('S');
@@ -232,7 +232,7 @@ fn read_surface(
     fields: &[&str],
     is_s: bool,
     line: usize,
-    vertices: &[Vec3],
+    vertices: &[DVec3],
     expected: usize,
     n_radiating: usize,
 ) -> Result<Surface, String> {
@@ -261,7 +261,7 @@ fn read_surface(
             "vertex {bad} is out of range (vertices 1 to {nv} are defined before this line)"
         ));
     }
-    let points: Vec<Vec3> = ids.iter().map(|&v| vertices[v - 1]).collect();
+    let points: Vec<DVec3> = ids.iter().map(|&v| vertices[v - 1]).collect();
     if !is_s {
         return Ok(Surface {
             number: n,

@@ -103,7 +103,7 @@ pub fn cornell_box(patch_size: f32) -> SceneDesc {
     let size = PatchGrid::Size(patch_size as f64);
     let poly = |name: &str, pts: &[[f32; 3]], material| PolygonDesc {
         name: name.to_string(),
-        vertices: pts.iter().copied().map(v).collect(),
+        vertices: pts.iter().map(|&p| super::as_written(v(p))).collect(),
         material,
         grid: size,
         group: None,

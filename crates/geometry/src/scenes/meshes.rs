@@ -36,7 +36,7 @@ fn loft_cut(cut: impl Fn(&[Vec3]) -> Vec<Vec<Vec3>>) -> SceneDesc {
         for (k, vertices) in cut(&corners).into_iter().enumerate() {
             polygons.push(PolygonDesc {
                 name: format!("{name} {k}"),
-                vertices,
+                vertices: vertices.iter().map(|&v| super::as_written(v)).collect(),
                 material,
                 grid: ONE,
                 group: None,
@@ -136,7 +136,7 @@ pub fn blob_room() -> SceneDesc {
     for (k, f) in faces.iter().enumerate() {
         polygons.push(PolygonDesc {
             name: format!("blob {k}"),
-            vertices: f.iter().map(|&i| at[i]).collect(),
+            vertices: f.iter().map(|&i| super::as_written(at[i])).collect(),
             material: 1,
             grid: ONE,
             group: None,

@@ -15,7 +15,7 @@ fn one(vertices: Vec<Vec3>, grid: PatchGrid) -> SceneDesc {
         }],
         polygons: vec![PolygonDesc {
             name: "p".into(),
-            vertices,
+            vertices: vertices.iter().map(|v| v.as_dvec3()).collect(),
             material: 0,
             grid,
             group: None,
@@ -300,7 +300,7 @@ fn scenes_outside_the_numeric_range_are_refused() {
         let mut d = rad_geometry::scenes::cube(2);
         for p in &mut d.polygons {
             for v in &mut p.vertices {
-                *v *= k;
+                *v = (v.as_vec3() * k).as_dvec3();
             }
         }
         Scene::new(d)
@@ -320,9 +320,9 @@ fn scenes_outside_the_numeric_range_are_refused() {
     d.polygons.push(rad_geometry::PolygonDesc {
         name: "speck".into(),
         vertices: vec![
-            glam::Vec3::new(1000.0, 0.0, 0.0),
-            glam::Vec3::new(1000.001, 0.0, 0.0),
-            glam::Vec3::new(1000.0, 0.001, 0.0),
+            glam::DVec3::new(1000.0, 0.0, 0.0),
+            glam::DVec3::new(1000.001, 0.0, 0.0),
+            glam::DVec3::new(1000.0, 0.001, 0.0),
         ],
         material: 0,
         grid: rad_geometry::PatchGrid::Cells { nu: 1, nv: 1 },
@@ -379,7 +379,7 @@ fn coplanar_overlapping_polygons_facing_the_same_way_are_refused_by_name() {
     // A piece inside another, same plane, same facing (z-fighting).
     let mut piece = cube(2);
     let f = piece.polygons[2].clone();
-    let c = f.vertices.iter().copied().sum::<glam::Vec3>() / 4.0;
+    let c = f.vertices.iter().copied().sum::<glam::DVec3>() / 4.0;
     let mut inner = f.clone();
     inner.name = "patch on the face".into();
     inner.vertices = f.vertices.iter().map(|&v| c + 0.25 * (v - c)).collect();

@@ -9,7 +9,7 @@ use rad_geometry::{LocateScratch, Located, PatchGrid, PolygonDesc, Scene, SceneD
 fn one_patch(name: String, vertices: Vec<Vec3>) -> PolygonDesc {
     PolygonDesc {
         name,
-        vertices,
+        vertices: vertices.iter().map(|v| v.as_dvec3()).collect(),
         material: 0,
         grid: PatchGrid::Cells { nu: 1, nv: 1 },
         group: None,

@@ -15,7 +15,7 @@ fn scene(vertices: Vec<Vec3>, grid: PatchGrid) -> Scene {
         }],
         polygons: vec![PolygonDesc {
             name: "p".into(),
-            vertices,
+            vertices: vertices.iter().map(|v| v.as_dvec3()).collect(),
             material: 0,
             grid,
             group: None,

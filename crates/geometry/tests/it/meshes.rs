@@ -22,7 +22,7 @@ fn blob_triangles() -> Vec<[Vec3; 3]> {
         .iter()
         .filter(|p| p.material == clay)
         .take(3000)
-        .map(|p| [p.vertices[0], p.vertices[1], p.vertices[2]])
+        .map(|p| [0, 1, 2].map(|k| p.vertices[k].as_vec3()))
         .collect()
 }
 

@@ -47,7 +47,7 @@ fn origins_spread_over_the_patch_by_area() {
     desc.polygons[0].vertices = (0..12)
         .map(|k| {
             let a = std::f32::consts::TAU * k as f32 / 12.0;
-            glam::Vec3::new(0.5 + 0.5 * a.cos(), 0.0, 0.5 - 0.5 * a.sin())
+            glam::Vec3::new(0.5 + 0.5 * a.cos(), 0.0, 0.5 - 0.5 * a.sin()).as_dvec3()
         })
         .collect();
     desc.polygons[0].grid = PatchGrid::Cells { nu: 3, nv: 3 };

@@ -69,7 +69,7 @@ proptest! {
         let mut desc = with_two_sided(desc, &sides);
         for p in &mut desc.polygons {
             for v in &mut p.vertices {
-                *v += glam::Vec3::new(offset, -0.5 * offset, 0.25 * offset);
+                *v = (v.as_vec3() + glam::Vec3::new(offset, -0.5 * offset, 0.25 * offset)).as_dvec3();
             }
         }
         let scene = Scene::new(desc);
@@ -85,9 +85,10 @@ proptest! {
 /// Every polygon shrunk about its centre by its own factor in `scales`.
 fn shrink(desc: &mut SceneDesc, scales: &[f32]) {
     for (p, &s) in desc.polygons.iter_mut().zip(scales.iter().cycle()) {
-        let c = p.vertices.iter().copied().sum::<glam::Vec3>() / p.vertices.len() as f32;
+        let c =
+            p.vertices.iter().map(|v| v.as_vec3()).sum::<glam::Vec3>() / p.vertices.len() as f32;
         for v in &mut p.vertices {
-            *v = c + (*v - c) * s;
+            *v = (c + (v.as_vec3() - c) * s).as_dvec3();
         }
     }
 }
@@ -212,7 +213,9 @@ fn skewed_pentagon(
         name: "skewed".into(),
         vertices: local
             .iter()
-            .map(|[x, y, z]| centre + (t * (x - 0.4) + b * (y - 0.4) + normal * z) * size)
+            .map(|[x, y, z]| {
+                (centre + (t * (x - 0.4) + b * (y - 0.4) + normal * z) * size).as_dvec3()
+            })
             .collect(),
         material: 0,
         grid: rad_geometry::PatchGrid::Cells { nu: 3, nv: 3 },
@@ -291,7 +294,7 @@ fn scan_matches_the_grid_around_a_pentagon_off_its_plane() {
             [0.5, 1.0, 0.0],
             [0.0, 0.02, 0.0],
         ]
-        .map(glam::Vec3::from)
+        .map(glam::DVec3::from)
         .to_vec(),
         material: 0,
         grid: rad_geometry::PatchGrid::Cells { nu: 2, nv: 2 },
@@ -312,7 +315,9 @@ fn scan_matches_the_grid_around_a_pentagon_off_its_plane() {
         let b = n.cross(t);
         polygons.push(rad_geometry::PolygonDesc {
             name: format!("probe {k}"),
-            vertices: vec![o - t - b, o + t - b, o + t + b, o - t + b],
+            vertices: [o - t - b, o + t - b, o + t + b, o - t + b]
+                .map(glam::Vec3::as_dvec3)
+                .to_vec(),
             material: 0,
             grid: rad_geometry::PatchGrid::Cells { nu: 1, nv: 1 },
             group: None,
@@ -409,7 +414,7 @@ proptest! {
         let psi = (0.25f64).to_radians() + tilt;
         let y = |x: f32| ((x as f64 - 0.5) * psi.tan()) as f32 + lift;
         let v = |x: f32, z: f32| glam::Vec3::new(x, y(x), z);
-        let mut tilted = vec![v(0.2, 0.2), v(0.2, 0.8), v(0.8, 0.8), v(0.8, 0.2)];
+        let mut tilted = [v(0.2, 0.2), v(0.2, 0.8), v(0.8, 0.8), v(0.8, 0.2)];
         if !up {
             tilted.reverse();
         }
@@ -424,8 +429,8 @@ proptest! {
                 emission: rad_core::Rgb([0.0; 3]),
             }],
             polygons: vec![
-                PolygonDesc { name: "floor".into(), vertices: floor, material: 0, grid: one, group: None, obstruction: false, two_sided: false },
-                PolygonDesc { name: "tilted".into(), vertices: tilted, material: 0, grid: one, group: None, obstruction: false, two_sided: false },
+                PolygonDesc { name: "floor".into(), vertices: floor.iter().map(|v| v.as_dvec3()).collect(), material: 0, grid: one, group: None, obstruction: false, two_sided: false },
+                PolygonDesc { name: "tilted".into(), vertices: tilted.iter().map(|v| v.as_dvec3()).collect(), material: 0, grid: one, group: None, obstruction: false, two_sided: false },
             ],
             camera: None,
         };

@@ -24,7 +24,7 @@ fn white() -> Vec<Material> {
 fn poly(name: &str, vertices: Vec<Vec3>, grid: PatchGrid, group: Option<&str>) -> PolygonDesc {
     PolygonDesc {
         name: name.into(),
-        vertices,
+        vertices: vertices.iter().map(|v| v.as_dvec3()).collect(),
         material: 0,
         grid,
         group: group.map(str::to_string),
