@@ -126,10 +126,12 @@ class Scene:
             return names, matrix, _array(area, np.float64), report
         return names, matrix
 
-    def solve(self, resolution=(180, 720), method="exact", caster=None, solver="gauss-seidel",
+    def solve(self, resolution=(180, 720), method="auto", caster=None, solver="gauss-seidel",
               tolerance=None, reciprocal=True, with_report=False):
         """Radiosity B of every patch (numpy (n, 3)), as `coherad solve` computes it:
-        rows at `resolution`, made reciprocal (unless `reciprocal=False`), solved by
+        rows at `resolution` by `method` ("auto", as `coherad solve`: estimated on a
+        mesh of 20,000 patches or more mostly in flat walls, else exact; "exact",
+        "estimated", "estimated/faithful"), made reciprocal (unless `reciprocal=False`), solved by
         "gauss-seidel", "progressive" or "jacobi" to `tolerance`. With `with_report`, also a dict
         (converged, iterations, residual, relative_imbalance, storage)."""
         raw, report = self._s.solve_raw(_resolution(resolution), method, caster, solver,

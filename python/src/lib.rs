@@ -66,13 +66,24 @@ fn bytes_of<T: Copy, const N: usize>(py: Python<'_>, v: &[T], to: fn(T) -> [u8; 
 }
 
 /// The row method of `method` ("exact", "estimated", "estimated/faithful",
-/// "estimated/improved") through `caster` (default: the fastest for the scene).
+/// "estimated/improved", or "auto": `RowMethod::auto_for`, `coherad solve`'s default)
+/// through `caster` (default: the fastest for the scene).
 fn row_method(scene: &SceneFile, method: &str, caster: Option<&str>) -> PyResult<RowMethod> {
     let caster = match caster {
         Some(c) => c.parse::<CasterKind>().map_err(fail)?,
         None => CasterKind::fastest_for(scene.scene.polygons().len()),
     };
     match method {
+        "auto" => {
+            let (picked, _) = RowMethod::auto_for(&scene.scene).map_err(fail)?;
+            Ok(match picked {
+                RowMethod::Estimated { mode, .. } => RowMethod::Estimated {
+                    mode,
+                    centres: caster,
+                },
+                RowMethod::Exact { .. } => RowMethod::Exact { caster },
+            })
+        }
         "exact" => Ok(RowMethod::Exact { caster }),
         "estimated" | "estimated/improved" => Ok(RowMethod::Estimated {
             mode: Mode::Improved,
@@ -83,7 +94,7 @@ fn row_method(scene: &SceneFile, method: &str, caster: Option<&str>) -> PyResult
             centres: caster,
         }),
         _ => Err(fail(format!(
-            "method {method:?}: expected \"exact\", \"estimated\", \"estimated/faithful\" or \"estimated/improved\""
+            "method {method:?}: expected \"auto\", \"exact\", \"estimated\", \"estimated/faithful\" or \"estimated/improved\""
         ))),
     }
 }
@@ -296,7 +307,7 @@ impl Scene {
 
     /// Radiosity of every patch, as `coherad solve` computes it: (f64 × 3 bytes a patch,
     /// a dict of the solver's report).
-    #[pyo3(signature = (resolution = (180, 720), method = "exact", caster = None, solver = "gauss-seidel", tolerance = None, reciprocal = true))]
+    #[pyo3(signature = (resolution = (180, 720), method = "auto", caster = None, solver = "gauss-seidel", tolerance = None, reciprocal = true))]
     #[allow(clippy::too_many_arguments)]
     fn solve_raw(
         &self,

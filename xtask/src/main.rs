@@ -1,9 +1,11 @@
 //! The harness: `cargo xtask reproduce [--quick] [--out DIR] [--threads N]` runs the
-//! experiments and writes results/; `cargo xtask scenes` rewrites bench-scenes/ from
-//! the builders.
+//! experiments and writes results/; `cargo xtask solves [--quick]` runs its solve
+//! section alone (`coherad solve` on bench scenes, timed, peak memory measured);
+//! `cargo xtask scenes` rewrites bench-scenes/ from the builders.
 
 mod plot;
 mod reproduce;
+mod solves;
 #[cfg(test)]
 mod tidy;
 
@@ -11,7 +13,7 @@ use anyhow::{bail, Context, Result};
 use std::path::PathBuf;
 
 fn usage() -> &'static str {
-    "usage: cargo xtask reproduce [--quick] [--out DIR] [--threads N]\n       cargo xtask scenes [--out DIR]"
+    "usage: cargo xtask reproduce [--quick] [--out DIR] [--threads N]\n       cargo xtask solves [--quick] [--out DIR]\n       cargo xtask scenes [--out DIR]"
 }
 
 fn main() -> Result<()> {
@@ -60,6 +62,10 @@ fn main() -> Result<()> {
                 root.join("results")
             };
             reproduce::reproduce(quick, &out.unwrap_or(default), &root, &args)
+        }
+        "solves" => {
+            let default = root.join("target").join("solves");
+            reproduce::solves_alone(quick, &out.unwrap_or(default), &root, &args)
         }
         "scenes" => reproduce::write_scenes(&out.unwrap_or(root.join("bench-scenes"))),
         other => bail!("unknown command {other:?}\n{}", usage()),

@@ -15,20 +15,7 @@ use std::time::Instant;
 pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let t = Instant::now();
-    let provenance = Provenance {
-        git_revision: git_revision(root),
-        cpu_model: cpu_model(),
-        nproc: std::thread::available_parallelism()
-            .map(|n| n.get())
-            .unwrap_or(1),
-        threads: rayon::current_num_threads(),
-        profile: if cfg!(debug_assertions) {
-            "debug".into()
-        } else {
-            "release".into()
-        },
-        command: format!("cargo xtask {}", args.join(" ")),
-    };
+    let provenance = provenance(root, args);
     eprintln!(
         "coherad reproduce{}: writing to {}",
         if quick { " --quick" } else { "" },
@@ -41,7 +28,6 @@ pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Resul
         );
     };
     let r = rad_repro::reproduce::run(quick, &progress).context("the reproduction failed")?;
-    let wall = t.elapsed().as_secs_f64();
     let write = |name: &str, text: String| -> Result<()> {
         let path = out.join(name);
         write_atomic(&path, |w| w.write_all(text.as_bytes()))
@@ -81,9 +67,52 @@ pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Resul
             .with_context(|| format!("writing {}", png.display()))?;
         eprintln!("  wrote {} and .png", exr.display());
     }
-    write("REPORT.md", r.report(&provenance, wall))?;
+    // The solves last, each a child process on an otherwise idle machine.
+    let solves = crate::solves::run(quick, root, &root.join("target").join("solves-work"))?;
+    write("solves.json", crate::solves::json(&provenance, &solves))?;
+    let wall = t.elapsed().as_secs_f64();
+    write(
+        "REPORT.md",
+        r.report(&provenance, wall) + &crate::solves::markdown(&solves),
+    )?;
     eprintln!("done in {wall:.1} s");
     Ok(())
+}
+
+/// `cargo xtask solves [--quick]`: the solve section alone, into `out` (solves.json,
+/// solves.md).
+pub fn solves_alone(quick: bool, out: &Path, root: &Path, args: &[String]) -> Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let provenance = provenance(root, args);
+    let solves = crate::solves::run(quick, root, &root.join("target").join("solves-work"))?;
+    for (name, text) in [
+        ("solves.json", crate::solves::json(&provenance, &solves)),
+        ("solves.md", crate::solves::markdown(&solves)),
+    ] {
+        let path = out.join(name);
+        write_atomic(&path, |w| w.write_all(text.as_bytes()))
+            .with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("  wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// Where the figures come from: this revision, machine, thread count and command.
+fn provenance(root: &Path, args: &[String]) -> Provenance {
+    Provenance {
+        git_revision: git_revision(root),
+        cpu_model: cpu_model(),
+        nproc: std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1),
+        threads: rayon::current_num_threads(),
+        profile: if cfg!(debug_assertions) {
+            "debug".into()
+        } else {
+            "release".into()
+        },
+        command: format!("cargo xtask {}", args.join(" ")),
+    }
 }
 
 /// Rewrites the bench-scene files from their builders.

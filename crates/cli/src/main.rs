@@ -343,6 +343,7 @@ enum ShadingKind {
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum Method {
+    Auto,
     Exact,
     Estimated,
 }
@@ -356,9 +357,9 @@ enum EstimatorMode {
 /// The flags that name a way to make rows.
 #[derive(clap::Args)]
 struct RowFlags {
-    /// exact: every hemisphere cast; estimated: 3x3 windows of a polygon (a mesh: windows of about nine neighbouring triangles of one plane), centres cast, the rest estimated.
-    #[arg(long, value_enum, default_value_t = Method::Exact)]
-    method: Method,
+    /// exact: every hemisphere cast; estimated: 3x3 windows of a polygon (a mesh: windows of about nine neighbouring triangles of one plane), centres cast, the rest estimated (improved by default); auto: estimated where it pays (a scene of 20,000 patches or more whose windows estimate half of them or more: a mesh of flat walls), else exact. Default: auto for solve, exact for formfactors.
+    #[arg(long, value_enum)]
+    method: Option<Method>,
     /// With --method estimated: the report's method (faithful) or visibility estimation (improved).
     #[arg(long, value_enum, default_value_t = EstimatorMode::Improved)]
     estimator: EstimatorMode,
@@ -373,7 +374,10 @@ struct RowFlags {
 }
 
 impl RowFlags {
-    fn method(&self, scene: &SceneFile) -> RowMethod {
+    /// The method the flags name, `default` where they name none (auto: what
+    /// [`RowMethod::auto_for`] picks, said on standard error, with `--caster` and
+    /// `--estimator` applied to it).
+    fn method(&self, scene: &SceneFile, default: Method) -> Result<RowMethod, String> {
         let caster = self
             .caster
             .unwrap_or_else(|| CasterKind::fastest_for(scene.scene.polygons().len()));
@@ -381,13 +385,30 @@ impl RowFlags {
             EstimatorMode::Faithful => Mode::Faithful,
             EstimatorMode::Improved => Mode::Improved,
         };
-        match self.method {
-            Method::Exact => RowMethod::Exact { caster },
+        let method = match self.method.unwrap_or(default) {
+            Method::Auto => {
+                let (picked, share) =
+                    RowMethod::auto_for(&scene.scene).map_err(|e| e.to_string())?;
+                let n = scene.scene.patches().len();
+                if picked.is_exact() {
+                    Method::Exact
+                } else {
+                    say!(
+                        "method auto: estimated rows ({n} patches, {:.0} % of them in windows that estimate them; --method exact casts every hemisphere)",
+                        100.0 * share
+                    );
+                    Method::Estimated
+                }
+            }
+            m => m,
+        };
+        Ok(match method {
             Method::Estimated => RowMethod::Estimated {
                 mode,
                 centres: caster,
             },
-        }
+            _ => RowMethod::Exact { caster },
+        })
     }
 }
 
@@ -545,7 +566,7 @@ fn run(cli: &Cli, ranks: &Ranks) -> Result<(), String> {
             out,
         } => {
             let scene = load(scene)?;
-            let method = rows.method(&scene);
+            let method = rows.method(&scene, Method::Exact)?;
             formfactors(&scene, resolution, patches, method, out.as_deref(), ranks)
         }
         Command::Viewfactors {
@@ -597,7 +618,7 @@ fn run(cli: &Cli, ranks: &Ranks) -> Result<(), String> {
             out,
         } => {
             let scene = load(scene)?;
-            let method = rows.method(&scene);
+            let method = rows.method(&scene, Method::Auto)?;
             let how = How {
                 solver: *solver,
                 tolerance: *tolerance,

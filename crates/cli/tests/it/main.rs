@@ -1514,3 +1514,52 @@ fn a_scene_that_emits_nothing_is_warned_of() {
 
 #[cfg(feature = "mpi")]
 mod mpi;
+
+/// `--method auto` (solve's default) on a small scene is exact: the same rows, to the
+/// byte, as `--method exact`, and no note that it estimates; on loft_triangles (28,800
+/// one-patch triangles in flat walls) it says it estimates, and writes estimated rows.
+#[test]
+fn method_auto_is_exact_on_small_scenes_and_says_when_it_estimates() {
+    let cube = bench_scene("cube.json");
+    let rows = |method: &str| {
+        let out = coherad(&[
+            "formfactors",
+            cube.to_str().unwrap(),
+            "--resolution",
+            "12x48",
+            "--method",
+            method,
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        out
+    };
+    let (auto, exact) = (rows("auto"), rows("exact"));
+    assert_eq!(auto.stdout, exact.stdout);
+    assert!(!String::from_utf8_lossy(&auto.stderr).contains("method auto"));
+    let mesh = bench_scene("loft_triangles.json");
+    let out = coherad(&[
+        "formfactors",
+        mesh.to_str().unwrap(),
+        "--resolution",
+        "4x16",
+        "--patches",
+        "0-99",
+        "--method",
+        "auto",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        said.contains("method auto: estimated rows (28800 patches"),
+        "{said}"
+    );
+    assert_eq!(json(&out)["method"], "estimated/improved");
+}

@@ -408,3 +408,31 @@ fn memory_limit_chooses_the_storage_and_refuses_what_fits_nothing() {
     let between = ((one + four) / 2) << 20;
     assert!(jacobi(between as usize, 1).is_err() && jacobi(between as usize, 4).is_ok());
 }
+
+/// `RowMethod::auto_for`, `coherad solve`'s default: estimated rows on the loft cut into
+/// 28,800 one-patch triangles (walls of triangles, most estimated by windows), exact on
+/// the loft (14,400 patches: too few), on its 14,400 one-patch polygons, and on the
+/// curved blob room (few of its triangles share a plane).
+#[test]
+fn auto_estimates_large_flat_meshes_only() {
+    for (name, desc, estimated) in [
+        ("loft", scenes::loft(), false),
+        ("loft_patches", scenes::loft_patches(), false),
+        ("loft_triangles", scenes::loft_triangles(), true),
+        ("blob_room", scenes::blob_room(), false),
+    ] {
+        let scene = Scene::new(desc).unwrap();
+        let (method, share) = RowMethod::auto_for(&scene).unwrap();
+        assert_eq!(
+            !method.is_exact(),
+            estimated,
+            "{name}: {method}, {share:.2} estimated by windows"
+        );
+        let fastest = CasterKind::fastest_for(scene.polygons().len());
+        assert!(matches!(
+            method,
+            RowMethod::Exact { caster } | RowMethod::Estimated { centres: caster, .. }
+                if caster == fastest
+        ));
+    }
+}
