@@ -8,7 +8,7 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
-use rad_pipeline::solve::{solve_scene, SolveOptions};
+use rad_pipeline::solve::{settle_auto, solve_scene, SolveOptions};
 use rad_pipeline::viewfactors::{count_surfaces, view_factors, Grouping, ViewFactorOptions};
 use rad_pipeline::{
     CasterKind, Enclosure, Hemisphere, HemisphereConfig, LoadOptions, Mode, Rgb, RowMethod,
@@ -319,6 +319,7 @@ impl Scene {
         tolerance: Option<f64>,
         reciprocal: bool,
     ) -> PyResult<(Py<PyBytes>, Py<PyDict>)> {
+        let method_name = method;
         let method = row_method(&self.file, method, caster)?;
         let hemi = hemisphere(resolution)?;
         let mut opts = SolveOptions {
@@ -343,6 +344,15 @@ impl Scene {
             opts.matrix_free.tolerance = t;
         }
         let file = &self.file;
+        // (Auto's estimated rows give way to exact ones where only matrix-free solving
+        // fits, as `coherad solve` does.)
+        let method = if method_name == "auto" {
+            settle_auto(&file.scene, &hemi, method, &opts, 1)
+                .map_err(fail)?
+                .0
+        } else {
+            method
+        };
         let (solution, solved, _) =
             detached(py, || solve_scene(file, &hemi, method, &opts, &|_| {}))?;
         let flat: Vec<f64> = solution.radiosity.iter().flatten().copied().collect();

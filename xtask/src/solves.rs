@@ -149,7 +149,9 @@ pub fn run(quick: bool, root: &Path, work: &Path) -> Result<Vec<Solved>> {
             solve_seconds: file["timings"]["solve_seconds"].as_f64().unwrap_or(0.0),
             disk_bytes: file["matrix"]["disk_bytes"].as_u64().unwrap_or(0),
         };
-        if !solved.converged || !(solved.relative_imbalance <= 1e-6) {
+        // (NaN, an imbalance the file did not give, is not balanced.)
+        let balanced = solved.relative_imbalance <= 1e-6;
+        if !solved.converged || !balanced {
             bail!(
                 "{}: converged {}, energy imbalance {:e}",
                 solved.command,
@@ -204,9 +206,15 @@ fn measured(binary: &Path, args: &[String], log: &Path) -> Result<(f64, i64)> {
     let mut status: libc::c_int = 0;
     // SAFETY: rusage is plain old data, zeroes a valid value; wait4 writes status and
     // usage for the child `pid`, which is ours and not yet waited for (the `Child` is
-    // never waited on after this).
+    // never waited on after this; interrupted, wait4 is asked again). Linux gives
+    // ru_maxrss in KiB.
     let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    let r = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
+    let r = loop {
+        let r = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
+        if r != -1 || std::io::Error::last_os_error().kind() != std::io::ErrorKind::Interrupted {
+            break r;
+        }
+    };
     let wall = t.elapsed().as_secs_f64();
     drop(child);
     if r != pid {

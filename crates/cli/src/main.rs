@@ -8,7 +8,7 @@ use rad_pipeline::output::{
     write_atomic, write_patches_json, write_row_json, write_rows_footer, write_rows_header,
 };
 use rad_pipeline::share::{self, Peers};
-use rad_pipeline::solve::{read_solution, solve_scene_shared, SolveOptions};
+use rad_pipeline::solve::{read_solution, settle_auto, solve_scene_shared, SolveOptions};
 use rad_pipeline::viewfactors::{
     area_rows, check_format, count_surfaces, row_patches, stream_patch_matrix, view_factors,
     view_factors_of_rows, write_view_factors, Grouping, MatrixFormat, ViewFactorOptions,
@@ -360,7 +360,7 @@ struct RowFlags {
     /// exact: every hemisphere cast; estimated: 3x3 windows of a polygon (a mesh: windows of about nine neighbouring triangles of one plane), centres cast, the rest estimated (improved by default); auto: estimated where it pays (a scene of 20,000 patches or more whose windows estimate half of them or more: a mesh of flat walls), else exact. Default: auto for solve, exact for formfactors.
     #[arg(long, value_enum)]
     method: Option<Method>,
-    /// With --method estimated: the report's method (faithful) or visibility estimation (improved).
+    /// With --method estimated (or auto, where it estimates): the report's method (faithful) or visibility estimation (improved).
     #[arg(long, value_enum, default_value_t = EstimatorMode::Improved)]
     estimator: EstimatorMode,
     /// How exact hemispheres are made (with --method estimated: the window centres,
@@ -376,8 +376,8 @@ struct RowFlags {
 impl RowFlags {
     /// The method the flags name, `default` where they name none (auto: what
     /// [`RowMethod::auto_for`] picks, said on standard error, with `--caster` and
-    /// `--estimator` applied to it).
-    fn method(&self, scene: &SceneFile, default: Method) -> Result<RowMethod, String> {
+    /// `--estimator` applied to it), and whether auto picked it.
+    fn method(&self, scene: &SceneFile, default: Method) -> Result<(RowMethod, bool), String> {
         let caster = self
             .caster
             .unwrap_or_else(|| CasterKind::fastest_for(scene.scene.polygons().len()));
@@ -385,7 +385,8 @@ impl RowFlags {
             EstimatorMode::Faithful => Mode::Faithful,
             EstimatorMode::Improved => Mode::Improved,
         };
-        let method = match self.method.unwrap_or(default) {
+        let asked = self.method.unwrap_or(default);
+        let method = match asked {
             Method::Auto => {
                 let (picked, share) =
                     RowMethod::auto_for(&scene.scene).map_err(|e| e.to_string())?;
@@ -402,13 +403,14 @@ impl RowFlags {
             }
             m => m,
         };
-        Ok(match method {
+        let method = match method {
             Method::Estimated => RowMethod::Estimated {
                 mode,
                 centres: caster,
             },
             _ => RowMethod::Exact { caster },
-        })
+        };
+        Ok((method, asked == Method::Auto))
     }
 }
 
@@ -566,7 +568,7 @@ fn run(cli: &Cli, ranks: &Ranks) -> Result<(), String> {
             out,
         } => {
             let scene = load(scene)?;
-            let method = rows.method(&scene, Method::Exact)?;
+            let (method, _) = rows.method(&scene, Method::Exact)?;
             formfactors(&scene, resolution, patches, method, out.as_deref(), ranks)
         }
         Command::Viewfactors {
@@ -618,7 +620,7 @@ fn run(cli: &Cli, ranks: &Ranks) -> Result<(), String> {
             out,
         } => {
             let scene = load(scene)?;
-            let method = rows.method(&scene, Method::Auto)?;
+            let (method, auto) = rows.method(&scene, Method::Auto)?;
             let how = How {
                 solver: *solver,
                 tolerance: *tolerance,
@@ -627,6 +629,7 @@ fn run(cli: &Cli, ranks: &Ranks) -> Result<(), String> {
                 storage: *storage,
                 memory_limit: parse_bytes(memory_limit)?,
                 temp_dir: temp_dir.clone(),
+                auto,
             };
             solve(&scene, resolution, method, &how, out, ranks)
         }
@@ -1132,6 +1135,8 @@ struct How {
     storage: StorageKind,
     memory_limit: usize,
     temp_dir: Option<PathBuf>,
+    /// The method is `--method auto`'s pick (settled against the storage).
+    auto: bool,
 }
 
 /// Bytes from "123", "900M", "1.5G" (suffixes K, M, G, T: powers of 1024).
@@ -1197,6 +1202,27 @@ fn report_storage(solved: &rad_pipeline::solve::Solved, opts: &SolveOptions) {
     }
 }
 
+/// The method a solve makes rows with: auto's pick settled against the storage
+/// ([`settle_auto`], said when it changes), any other as asked.
+fn settled(
+    scene: &SceneFile,
+    hemi: &Hemisphere,
+    method: RowMethod,
+    how: &How,
+    opts: &SolveOptions,
+    ranks: &Ranks,
+) -> Result<RowMethod, String> {
+    if !how.auto {
+        return Ok(method);
+    }
+    let (settled, changed) =
+        settle_auto(&scene.scene, hemi, method, opts, ranks.size()).map_err(|e| e.to_string())?;
+    if changed {
+        say!("method auto: exact rows after all (matrix-free solving, asked for or the only storage that fits, casts each shooter's row)");
+    }
+    Ok(settled)
+}
+
 fn solve(
     scene: &SceneFile,
     resolution: &str,
@@ -1245,6 +1271,7 @@ fn solve(
         opts.config.max_iterations = n;
         opts.matrix_free.max_iterations = n;
     }
+    let method = settled(scene, &hemi, method, how, &opts, ranks)?;
     let n = scene.scene.patches().len();
     let bar = row_bar(&hemi, method, n);
     let solved = solve_scene_shared(

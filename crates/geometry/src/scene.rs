@@ -23,7 +23,8 @@ pub enum PatchGrid {
     /// Exactly `nu × nv` cells.
     Cells { nu: u64, nv: u64 },
     /// Cells about `size` long on each edge: `nu = max(1, round(|e_u| / size))`, same for v
-    /// (halves, and sides within a millionth below a half, rounded up).
+    /// (halves rounded up, and counts within a millionth of themselves (at most a
+    /// thousandth of a cell) below a half).
     Size(f64),
 }
 
@@ -122,8 +123,17 @@ pub struct Scene {
 impl Scene {
     /// Validates a description and builds every polygon's patch texture.
     pub fn new(desc: SceneDesc) -> Result<Scene, Error> {
+        Scene::build(desc, &[])
+    }
+
+    /// [`Scene::new`], the back sides of two-sided polygons cut by `back_grids` in
+    /// order where given (the divided scene's, cut as the scene's were, not anew).
+    fn build(desc: SceneDesc, back_grids: &[PatchGrid]) -> Result<Scene, Error> {
         // (Kept before validation: the polygons below are built from its vertices.)
         let unit_desc = divided(&desc);
+        // (How polygons are cut is decided on the vertices divided by the largest
+        // coordinate, the divided scene's: so a scene cuts alike at any scale.)
+        let unit = structure_unit(&desc);
         check_materials(&desc.materials)?;
         if desc.polygons.is_empty() {
             return Err(Error::Empty);
@@ -134,13 +144,7 @@ impl Scene {
         let described = desc.polygons.len();
         // Two-sided polygons' back sides come after every described polygon, so that
         // the described ones keep their indices (the file's, in errors and outputs).
-        let backs: Vec<(usize, PolygonDesc)> = desc
-            .polygons
-            .iter()
-            .enumerate()
-            .filter(|(_, p)| p.two_sided && !p.obstruction)
-            .map(|(idx, p)| (idx, back_side(p)))
-            .collect();
+        let backs = back_sides(&desc, unit, back_grids);
         let mut polygons = Vec::with_capacity(described + backs.len());
         let mut patches: Vec<Patch> = Vec::new();
         let mut groups = Vec::with_capacity(described + backs.len());
@@ -168,7 +172,7 @@ impl Scene {
                     },
                 ));
             }
-            let (nu, nv) = grid_cells(&pd).map_err(|p| fail(&pd.name, p))?;
+            let (nu, nv) = grid_cells(&pd, unit).map_err(|p| fail(&pd.name, p))?;
             if nu.saturating_mul(nv) > crate::polygon::MAX_CELLS_PER_POLYGON {
                 let limit = crate::polygon::MAX_CELLS_PER_POLYGON;
                 return Err(fail(
@@ -251,14 +255,29 @@ impl Scene {
             return Ok(self);
         };
         let made = self.unit_scene.get_or_init(|| {
-            let scene = Scene::new((**desc).clone()).map_err(|e| e.to_string())?;
+            // (Back sides cut as this scene's: a many-sided back's own frame may run
+            // along another edge than its front's.)
+            let backs = self.polygons.get(desc.polygons.len()..).unwrap_or(&[]);
+            let cells = |p: &Polygon| {
+                let (nu, nv) = p.grid();
+                PatchGrid::Cells {
+                    nu: u64::from(nu),
+                    nv: u64::from(nv),
+                }
+            };
+            let backs: Vec<PatchGrid> = backs.iter().map(cells).collect();
+            let scene = Scene::build((**desc).clone(), &backs).map_err(|e| e.to_string())?;
+            let polygons_alike = |a: &Polygon, b: &Polygon| {
+                a.grid() == b.grid()
+                    && a.first_patch() == b.first_patch()
+                    && a.front_only() == b.front_only()
+            };
             let alike = scene.patches.len() == self.patches.len()
                 && scene.polygons.len() == self.polygons.len()
-                && scene
-                    .polygons
-                    .iter()
-                    .zip(&self.polygons)
-                    .all(|(a, b)| a.grid() == b.grid() && a.first_patch() == b.first_patch());
+                && scene.obstructions == self.obstructions
+                && (scene.polygons.iter().zip(&self.polygons)).all(|(a, b)| polygons_alike(a, b))
+                && (scene.patches.iter().zip(&self.patches))
+                    .all(|(a, b)| a.polygon == b.polygon && a.cell == b.cell);
             if alike {
                 Ok(Box::new(scene))
             } else {
@@ -404,6 +423,26 @@ pub(crate) fn rounded(vertices: &[DVec3]) -> Vec<Vec3> {
     vertices.iter().map(|v| v.as_vec3()).collect()
 }
 
+/// What a scene's polygons are measured in where it decides how to cut them (patch
+/// sizes, back sides' grids): its largest coordinate, as the divided scene rows are made
+/// from ([`Scene::for_rows`]), so that the decisions, made on f32 vertices, are the same
+/// at any scale; 1 where that coordinate is not finite and positive (the polygons' own
+/// checks name the problem). Dividing by a power of two changes no decision.
+fn structure_unit(desc: &SceneDesc) -> f64 {
+    let unit = largest_coordinate(desc);
+    if unit.is_finite() && unit > 0.0 {
+        unit
+    } else {
+        1.0
+    }
+}
+
+/// `vertices` divided by `unit` in f64, then rounded to f32 (as the divided scene holds
+/// them).
+fn rounded_in(vertices: &[DVec3], unit: f64) -> Vec<Vec3> {
+    vertices.iter().map(|&v| (v / unit).as_vec3()).collect()
+}
+
 /// The largest magnitude of a described coordinate (NaN where one is NaN).
 fn largest_coordinate(desc: &SceneDesc) -> f64 {
     desc.polygons
@@ -465,11 +504,27 @@ fn cut_alike(mut divided: Box<SceneDesc>, polygons: &[Polygon]) -> Box<SceneDesc
     divided
 }
 
+/// The back sides of `desc`'s two-sided polygons ([`back_side`]) with the file's index
+/// of their fronts, cut by `back_grids` in order where given.
+fn back_sides(desc: &SceneDesc, unit: f64, back_grids: &[PatchGrid]) -> Vec<(usize, PolygonDesc)> {
+    let mut backs: Vec<(usize, PolygonDesc)> = desc
+        .polygons
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.two_sided && !p.obstruction)
+        .map(|(idx, p)| (idx, back_side(p, unit)))
+        .collect();
+    for ((_, back), &grid) in backs.iter_mut().zip(back_grids) {
+        back.grid = grid;
+    }
+    backs
+}
+
 /// The back side of a two-sided polygon: its vertices in reverse order (the first
 /// kept), named `NAME:back`, in group `GROUP:back`, its patch grid turned to match the
 /// front's cells where its texture's u runs along the front's v (as for a triangle or
 /// a parallelogram, whose edge frame then swaps u and v).
-fn back_side(pd: &PolygonDesc) -> PolygonDesc {
+fn back_side(pd: &PolygonDesc, unit: f64) -> PolygonDesc {
     let mut vertices = pd.vertices.clone();
     if vertices.len() > 1 {
         vertices[1..].reverse();
@@ -478,7 +533,8 @@ fn back_side(pd: &PolygonDesc) -> PolygonDesc {
         PatchGrid::Cells { nu, nv } => {
             // Swapped where the back's u runs along the front's v (by direction, not
             // length: a square's sides are equal).
-            let sides = |v: &[DVec3]| crate::polygon::texture_sides(&rounded(v));
+            // (Decided on the divided vertices, [`structure_unit`].)
+            let sides = |v: &[DVec3]| crate::polygon::texture_sides(&rounded_in(v, unit));
             let swapped = match (sides(&pd.vertices), sides(&vertices)) {
                 (Some((fu, _)), Some((bu, bv))) => {
                     let along =
@@ -506,8 +562,9 @@ fn back_side(pd: &PolygonDesc) -> PolygonDesc {
     }
 }
 
-/// The patch-grid size of a polygon description.
-fn grid_cells(pd: &PolygonDesc) -> Result<(u64, u64), PolygonProblem> {
+/// The patch-grid size of a polygon description, its sides measured on its vertices
+/// divided by `unit` ([`structure_unit`]).
+fn grid_cells(pd: &PolygonDesc, unit: f64) -> Result<(u64, u64), PolygonProblem> {
     match pd.grid {
         PatchGrid::Cells { nu, nv } => Ok((nu, nv)),
         PatchGrid::Size(size) => {
@@ -521,16 +578,18 @@ fn grid_cells(pd: &PolygonDesc) -> Result<(u64, u64), PolygonProblem> {
             }
             // The sides of the polygon's (u, v) frame (invalid vertices get one cell:
             // the polygon's own checks then name their problem).
-            let Some((lu, lv)) = crate::polygon::texture_side_lengths(&rounded(&pd.vertices))
+            let Some((lu, lv)) =
+                crate::polygon::texture_side_lengths(&rounded_in(&pd.vertices, unit))
             else {
                 return Ok((1, 1));
             };
-            // (Rounded half up, and up within a millionth below a half: the f32 sides
-            // of a scene scaled by a factor that is not a power of two round differently,
-            // and a side of one and a half cells would otherwise be cut in one or two
-            // at different scales.)
+            // (Rounded half up, and up within a millionth of the count (at most a
+            // thousandth of a cell) below a half: the f32 sides of a scene scaled by a
+            // factor that is not a power of two round differently, and a side of one and
+            // a half cells would otherwise be cut in one or two at different scales.)
             let cells = |l: f64| {
-                let c = (l / size * (1.0 + 1e-6) + 0.5).floor();
+                let r = l / (size / unit);
+                let c = (r + 0.5 + (1e-6 * r).min(1e-3)).floor();
                 if c.is_finite() {
                     (c as u64).max(1)
                 } else {

@@ -202,9 +202,11 @@ impl FromStr for RowMethod {
         let err = |reason: String| bad("row method", s, reason);
         let caster_of = |c: Option<&str>| match c {
             None => Ok(CasterKind::Scan),
-            Some(c) => {
-                caster(c).ok_or_else(|| err(format!("unknown caster {c:?}: expected scan or grid")))
-            }
+            Some(c) => caster(c).ok_or_else(|| {
+                err(format!(
+                    "unknown caster {c:?}: expected scan, grid or hierarchy"
+                ))
+            }),
         };
         let parts: Vec<&str> = s.split('/').collect();
         match parts[..] {

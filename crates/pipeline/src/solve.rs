@@ -321,6 +321,43 @@ pub fn solve_scene(
     Ok(solved.expect("one process solves"))
 }
 
+/// What a method [`RowMethod::auto_for`] picked becomes for a solve with `opts` among
+/// `processes` processes: estimated rows stay where a storage that takes them (stored,
+/// out of core) is asked for, or fits the limit and the temporary folder; where
+/// matrix-free solving is asked for, or is the only storage that fits, the rows are made
+/// exactly (matrix-free solving casts each shooter's row), by the estimate's caster.
+/// Returns the method and whether it changed (exact methods never do).
+pub fn settle_auto(
+    scene: &Scene,
+    hemi: &Hemisphere,
+    method: RowMethod,
+    opts: &SolveOptions,
+    processes: usize,
+) -> Result<(RowMethod, bool), Error> {
+    let RowMethod::Estimated { centres, .. } = method else {
+        return Ok((method, false));
+    };
+    let exact = RowMethod::Exact { caster: centres };
+    match opts.storage {
+        Some(Storage::MatrixFree) => Ok((exact, true)),
+        Some(_) => Ok((method, false)),
+        None if opts.solver == Solver::Jacobi => Ok((method, false)),
+        None => {
+            let temp = (processes == 1).then(|| opts.temp_dir());
+            let (limit, temp) = (opts.memory_limit, temp.as_deref());
+            if crate::storage::choose(scene, hemi, method, limit, temp).is_ok() {
+                return Ok((method, false));
+            }
+            Ok(
+                match crate::storage::choose(scene, hemi, exact, limit, temp) {
+                    Ok(_) => (exact, true),
+                    Err(_) => (method, false),
+                },
+            )
+        }
+    }
+}
+
 /// [`solve_scene`] shared among `peers` (MPI ranks, say), the same solution to the bit
 /// whatever their number: stored, each makes its share of the rows ([`crate::share`]),
 /// gathered on the first, which solves; matrix-free, every process runs the same

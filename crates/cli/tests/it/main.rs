@@ -425,7 +425,7 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 /// and the pipeline crate (hashes stored from the binary at 4538061), for exact rows
 /// through both casters and estimated rows in both modes with centres through both.
 /// The loft's were stored again when rows came to be made from the scene divided by
-/// its largest coordinate (12; issue 19): 30 of 8,294,400 cells of 64 hemispheres see
+/// its largest coordinate (12; issue 19): 28 of 8,294,400 cells of 64 hemispheres see
 /// another patch, one cell's 1.2e-5 at most (`cargo run --release -p rad-hemisphere
 /// --example divided_rows`); the unit cube's, divided by 1, are the same bytes.
 #[test]
@@ -1562,4 +1562,32 @@ fn method_auto_is_exact_on_small_scenes_and_says_when_it_estimates() {
         "{said}"
     );
     assert_eq!(json(&out)["method"], "estimated/improved");
+}
+
+/// Auto's estimated rows give way to exact ones where matrix-free solving is asked for
+/// (it casts each shooter's row): a large flat mesh solves, saying so.
+#[test]
+fn method_auto_makes_exact_rows_for_matrix_free_solving() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("s.json");
+    let mesh = bench_scene("loft_triangles.json");
+    let run = coherad(&[
+        "solve",
+        mesh.to_str().unwrap(),
+        "--resolution",
+        "4x16",
+        "--storage",
+        "matrix-free",
+        "--tolerance",
+        "0.5",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let said = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{said}");
+    assert!(said.contains("exact rows after all"), "{said}");
+    let file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(file["method"], "exact");
+    assert_eq!(file["matrix"]["storage"], "matrix-free");
 }

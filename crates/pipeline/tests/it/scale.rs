@@ -1,7 +1,7 @@
 //! Rows do not depend on the scene's scale (issue 19): a scene scaled by any factor
 //! from 1e-6 to 1e6, as a file would give it (its coordinates multiplied in f64, its
-//! patch size alike), gets the same rows within 1e-6 an entry, by every caster and
-//! estimated (they are made from the scene divided by its largest coordinate,
+//! patch size alike), two-sided polygons among them, gets the same rows within 1e-6 an
+//! entry, by every caster and estimated (they are made from the scene divided by its largest coordinate,
 //! `Scene::for_rows`, the same scene whatever the factor).
 
 use proptest::prelude::*;
@@ -38,11 +38,32 @@ fn largest_difference(a: &rad_pipeline::Rows, b: &rad_pipeline::Rows, n: usize) 
     most
 }
 
+/// The unit cube (faces outward-cut 2 x 2) with a two-sided regular hexagon inside,
+/// cut by a patch size: its back's own (u, v) frame runs along another edge than its
+/// front's, so the back is cut by its own sides.
+fn cube_with_hexagon() -> SceneDesc {
+    let mut desc = scenes::cube(2);
+    let mut hexagon = desc.polygons[0].clone();
+    hexagon.name = "hexagon".into();
+    hexagon.vertices = (0..6)
+        .map(|k| {
+            let a = std::f64::consts::TAU * f64::from(k) / 6.0;
+            glam::DVec3::new(0.5 + 0.3 * a.cos(), 0.45, 0.5 + 0.3 * a.sin())
+        })
+        .collect();
+    hexagon.grid = PatchGrid::Size(0.05);
+    hexagon.two_sided = true;
+    desc.polygons.push(hexagon);
+    desc
+}
+
 fn scene_to_scale() -> impl Strategy<Value = SceneDesc> {
     prop_oneof![
         Just(scenes::cube(3)),
         Just(scenes::cornell_box(150.0)),
-        rad_testkit::random_scene(8),
+        Just(cube_with_hexagon()),
+        (rad_testkit::random_scene(8), rad_testkit::two_sided_flags())
+            .prop_map(|(desc, sides)| rad_testkit::with_two_sided(desc, &sides)),
     ]
 }
 
