@@ -87,8 +87,8 @@ class Scene:
         """Form-factor rows F_ij as a `scipy.sparse.csr_matrix` (one row a patch asked
         for, in that order; all patches by default, so n x n), by hemisphere ray casting
         at `resolution` = (n_theta, n_phi). `method`: "exact", "estimated" (improved),
-        "estimated/faithful" or "estimated/improved"; `caster`: "scan", "grid" or
-        "hierarchy" (default: the fastest for the scene; every caster gives the same
+        "estimated/faithful" or "estimated/improved"; `caster`: "scan", "grid",
+        "hierarchy" or "facets" (default: the fastest for the scene; every caster gives the same
         rows, to the bit). With `with_losses`, also (back, escaped): per row, the form
         factor of rays that met a polygon from behind or left the scene."""
         if patches is not None:

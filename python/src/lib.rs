@@ -71,7 +71,7 @@ fn bytes_of<T: Copy, const N: usize>(py: Python<'_>, v: &[T], to: fn(T) -> [u8; 
 fn row_method(scene: &SceneFile, method: &str, caster: Option<&str>) -> PyResult<RowMethod> {
     let caster = match caster {
         Some(c) => c.parse::<CasterKind>().map_err(fail)?,
-        None => CasterKind::fastest_for(scene.scene.polygons().len()),
+        None => CasterKind::fastest_for(&scene.scene),
     };
     match method {
         "auto" => {

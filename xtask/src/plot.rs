@@ -14,7 +14,7 @@ pub fn scaling_png(s: &Scaling) -> Result<Vec<u8>> {
     plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
         .map_err(|_| anyhow!("the DejaVu font did not load"))?;
     let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
-    for caster in ["grid", "scan", "hierarchy"] {
+    for caster in ["grid", "scan", "hierarchy", "facets"] {
         let points = s.scenes.iter().filter_map(|sc| {
             let t = sc.casters.iter().find(|t| t.caster == caster)?;
             Some((sc.polygons as f64, t.ms_per_hemisphere))
@@ -74,7 +74,7 @@ pub fn scaling_png(s: &Scaling) -> Result<Vec<u8>> {
             .y_desc("ms a hemisphere (rows: a row)")
             .draw()
             .map_err(|e| anyhow!("drawing the scaling plot: {e:?}"))?;
-        let colours = [RED, BLUE, GREEN, MAGENTA, CYAN];
+        let colours = [RED, BLUE, GREEN, BLACK, MAGENTA, CYAN];
         for ((label, points), colour) in series.iter().zip(colours) {
             chart
                 .draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))

@@ -169,7 +169,7 @@ enum Command {
         /// json.
         #[arg(long, value_enum)]
         format: Option<FormatKind>,
-        /// How hemispheres are made: scan, hierarchy or grid (the same factors, to the
+        /// How hemispheres are made: scan, hierarchy, facets or grid (the same factors, to the
         /// bit). Default: the fastest for the scene.
         #[arg(long)]
         caster: Option<CasterKind>,
@@ -366,9 +366,11 @@ struct RowFlags {
     /// How exact hemispheres are made (with --method estimated: the window centres,
     /// improved mode's real rays and exact fallbacks): scan (each polygon tested on the
     /// cells it can cover), hierarchy (the scan over a bounding volume hierarchy,
-    /// skipping hidden subtrees) or grid (each cell's ray through the voxel grid, the
-    /// report's way). All give the same rows, to the bit. Default: the fastest for the
-    /// scene (scan below 1024 polygons, hierarchy from there).
+    /// skipping hidden subtrees), facets (the scan over a mesh's flat pieces, each
+    /// cell's triangle found in its piece's grid) or grid (each cell's ray through the
+    /// voxel grid, the report's way). All give the same rows, to the bit. Default: the
+    /// fastest for the scene (scan below 1024 polygons; from there facets where the flat
+    /// pieces hold 256 polygons or more on average, else hierarchy).
     #[arg(long)]
     caster: Option<CasterKind>,
 }
@@ -380,7 +382,7 @@ impl RowFlags {
     fn method(&self, scene: &SceneFile, default: Method) -> Result<(RowMethod, bool), String> {
         let caster = self
             .caster
-            .unwrap_or_else(|| CasterKind::fastest_for(scene.scene.polygons().len()));
+            .unwrap_or_else(|| CasterKind::fastest_for(&scene.scene));
         let mode = match self.estimator {
             EstimatorMode::Faithful => Mode::Faithful,
             EstimatorMode::Improved => Mode::Improved,

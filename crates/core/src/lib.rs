@@ -2,11 +2,13 @@
 //! [`RayCast`] trait through which form-factor code sees an accelerator.
 
 mod frame;
+mod hint;
 mod ids;
 mod ray;
 mod rgb;
 
 pub use frame::Frame;
+pub use hint::prefetch;
 pub use ids::{PatchId, PolygonId, BACK, ESCAPED, HOLE, NO_POLYGON};
 pub use ray::{Hit, Ray, RayCast};
 pub use rgb::Rgb;

@@ -203,9 +203,8 @@ impl Estimator<'_> {
                 terms.made(p).num < 0.0
             }
         };
-        w.hits.items(polygons, front, patch, dist, |cells, _, _| {
-            real.extend(cells)
-        });
+        w.hits
+            .items(scene, front, patch, dist, |cells, _, _| real.extend(cells));
         out.real_rays = real.len();
         if real.len() as f64 > config.max_real_ray_share * n_cells as f64 {
             return Outcome::CastExactly;

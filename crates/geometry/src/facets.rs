@@ -7,7 +7,7 @@
 
 use crate::{Polygon, Scene};
 use glam::{DVec2, DVec3, Vec3};
-use rad_core::{PolygonId, NO_POLYGON};
+use rad_core::{prefetch, PolygonId, NO_POLYGON};
 
 /// The largest angle (radians) between the normals of two polygons of one facet, and
 /// the farthest (relative to the facet's first polygon's size) a vertex may lie from its
@@ -103,8 +103,23 @@ pub enum Located {
 }
 
 impl Facets {
-    /// The facets of `scene` (made from its [`crate::EdgeNeighbours`]).
+    /// The facets of `scene` (made from its [`crate::EdgeNeighbours`]), with margins for
+    /// guesses: twice the members' reach beyond their edges, and a hundredth of a grid
+    /// cell (a member's test may still accept a point [`Located::Clear`] in another by
+    /// its sharpest corner).
     pub fn of(scene: &Scene) -> Facets {
+        Facets::made(scene, false)
+    }
+
+    /// [`Facets::of`] with margins for exact casting: past the members' edges by as far
+    /// as their tests reach at their sharpest corners (twice the reach over the sine of
+    /// the half-angle), and three hundredths of a grid cell for the rounding of points
+    /// seen at a slant (what a caster checks before it locates).
+    pub fn exact(scene: &Scene) -> Facets {
+        Facets::made(scene, true)
+    }
+
+    fn made(scene: &Scene, exact: bool) -> Facets {
         let polygons = scene.polygons();
         let n = polygons.len();
         // Polygons of one patch (their patch grids are 1 × 1 and not empty) and of at
@@ -150,7 +165,7 @@ impl Facets {
             }
             out.members[first..].sort_unstable();
             let members = first as u32..out.members.len() as u32;
-            let facet = out.grid(polygons, members);
+            let facet = out.grid(polygons, members, exact);
             out.facets.push(facet);
         }
         out.facet_of = facet_of;
@@ -159,7 +174,7 @@ impl Facets {
 
     /// Facet `members`' plane and, for several, its grid (cells of about half a polygon
     /// across) and their outlines, appended.
-    fn grid(&mut self, polygons: &[Polygon], members: std::ops::Range<u32>) -> Facet {
+    fn grid(&mut self, polygons: &[Polygon], members: std::ops::Range<u32>, exact: bool) -> Facet {
         let ids = &self.members[members.start as usize..members.end as usize];
         let first = &polygons[ids[0] as usize];
         let frame = first.frame();
@@ -199,10 +214,18 @@ impl Facets {
         // from the f64 plane too).
         let reach = ids
             .iter()
-            .map(|&p| f64::from(polygons[p as usize].reach()))
+            .zip(&shapes)
+            .map(|(&p, vs)| {
+                let reach = 2.0 * f64::from(polygons[p as usize].reach());
+                if exact {
+                    reach / sharpest_sin_half(vs).max(1e-6)
+                } else {
+                    reach
+                }
+            })
             .fold(0.0, f64::max);
         let magnitude = lo.abs().max(hi.abs()).max_element();
-        let slack = 2.0 * reach + 4e-6 * magnitude + 1e-6 * (hi - lo).max_element() + 1e-12;
+        let slack = reach + 4e-6 * magnitude + 1e-6 * (hi - lo).max_element() + 1e-12;
         let area: f64 = ids.iter().map(|&p| polygons[p as usize].area()).sum();
         let box_area = (hi - lo).x.max(slack) * (hi - lo).y.max(slack);
         // Cells of half a polygon's size across, at most 16 a polygon (a long, thin or
@@ -211,7 +234,7 @@ impl Facets {
         let cell = (0.5 * (area / ids.len() as f64).sqrt())
             .max((box_area / (16.0 * ids.len() as f64)).sqrt())
             .max((hi - lo).max_element() / 8000.0);
-        let margin = slack + 0.01 * cell;
+        let margin = slack + if exact { 0.03 } else { 0.01 } * cell;
         // The box padded by the margin (a hit just outside the facet's border is still
         // its border polygon's candidate).
         let (lo, hi) = (lo - margin, hi + margin);
@@ -223,7 +246,7 @@ impl Facets {
         let index = |x: f64, d: u32| ((x / cell).floor().max(0.0) as u32).min(d - 1);
         // Each polygon in the cells it meets, grown by the margin.
         let grow = margin;
-        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); (dims[0] * dims[1]) as usize];
+        let mut lists: Vec<Vec<(u32, u32)>> = vec![Vec::new(); (dims[0] * dims[1]) as usize];
         for (&p, vs) in ids.iter().zip(&shapes) {
             let slot = self.edges.len() as u32;
             let (outline, lines) = Outline::of(p, vs);
@@ -245,28 +268,39 @@ impl Facets {
                         best < -grow
                     });
                     if !outside {
-                        lists[(j * dims[0] + i) as usize].push(slot);
+                        let covers = coverage(&lines[..vs.len()], x0, y0, cell);
+                        lists[(j * dims[0] + i) as usize].push((covers, slot));
                     }
                 }
             }
         }
         for l in lists {
-            let mut c = [EMPTY; 4];
-            if l.len() <= 4 {
-                c[..l.len()].copy_from_slice(&l);
-            } else {
-                c[..3].copy_from_slice(&l[..3]);
-                c[3] = OVERFLOW | (self.overflow_start.len() - 1) as u32;
-                self.overflow.extend_from_slice(&l[3..]);
-                self.overflow_start.push(self.overflow.len() as u32);
-            }
-            self.cells.push(c);
+            self.push_cell(l);
         }
         facet.lo = [lo.x as f32, lo.y as f32];
         facet.inv_cell = (1.0 / cell) as f32;
         facet.dims = dims;
         facet.margin = margin as f32;
         facet
+    }
+
+    /// Appends a grid cell holding the outline slots of `l` (each with how much of the
+    /// cell it covers).
+    fn push_cell(&mut self, mut l: Vec<(u32, u32)>) {
+        // The polygon most of the cell lies in first: so the one holding a point is
+        // found sooner (which one holds it does not depend on the order).
+        l.sort_unstable_by_key(|&(covers, slot)| (std::cmp::Reverse(covers), slot));
+        let l: Vec<u32> = l.into_iter().map(|(_, slot)| slot).collect();
+        let mut c = [EMPTY; 4];
+        if l.len() <= 4 {
+            c[..l.len()].copy_from_slice(&l);
+        } else {
+            c[..3].copy_from_slice(&l[..3]);
+            c[3] = OVERFLOW | (self.overflow_start.len() - 1) as u32;
+            self.overflow.extend_from_slice(&l[3..]);
+            self.overflow_start.push(self.overflow.len() as u32);
+        }
+        self.cells.push(c);
     }
 
     /// The number of facets.
@@ -297,6 +331,22 @@ impl Facets {
         self.facets[f as usize].members.len() > 1
     }
 
+    /// Facet `f`'s plane n·p = d (its first polygon's, in f32 as its point tests take
+    /// it).
+    #[inline]
+    pub fn plane(&self, f: u32) -> (Vec3, f32) {
+        let facet = &self.facets[f as usize];
+        (facet.n, facet.d)
+    }
+
+    /// How far outside a polygon's edges (world units, in the facet's plane) a point
+    /// may lie and still be [`Located::Near`] it rather than `Outside`, and how far
+    /// inside one it must lie to be [`Located::Clear`] (facets of several polygons).
+    #[inline]
+    pub fn margin(&self, f: u32) -> f32 {
+        self.facets[f as usize].margin
+    }
+
     /// `d − n·o` for facet `f`'s plane n·p = d (its first polygon's): negative where
     /// `o` is in front of it.
     #[inline]
@@ -321,54 +371,55 @@ impl Facets {
         &self,
         f: u32,
         o: Vec3,
-        [dx, dy, dz]: [&[f32]; 3],
+        dirs: [&[f32]; 3],
         nearer: &[f32],
         out: &mut Vec<Located>,
         scratch: &mut LocateScratch,
     ) {
+        self.locate_span_steep(f, o, dirs, nearer, 0.0, out, scratch)
+    }
+
+    /// [`Facets::locate_span`] of the rays that meet the facet's plane at a cosine of
+    /// `min_cos` or more (|n · dir|, n the plane's f32 normal, in the order x, y, z);
+    /// the others are `Outside`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn locate_span_steep(
+        &self,
+        f: u32,
+        o: Vec3,
+        [dx, dy, dz]: [&[f32]; 3],
+        nearer: &[f32],
+        min_cos: f32,
+        out: &mut Vec<Located>,
+        scratch: &mut LocateScratch,
+    ) {
         let facet = &self.facets[f as usize];
-        let n = dx.len().min(dy.len()).min(dz.len()).min(nearer.len());
+        let n = self.points(facet, o, [dx, dy, dz], nearer, min_cos, scratch);
         out.clear();
         let LocateScratch { x, y, t, cell } = scratch;
-        for v in [&mut *x, &mut *y, &mut *t] {
-            v.clear();
-            v.resize(n, 0.0);
-        }
-        cell.clear();
-        cell.resize(n, EMPTY);
-        // Each ray's point, t and grid cell (EMPTY outside), branch-free (vectorised).
-        let num = facet.d - facet.n.dot(o);
-        let (nv, a0, a1) = (facet.n, facet.axes[0], facet.axes[1]);
-        let (o0, o1) = (o.dot(a0) - facet.lo[0], o.dot(a1) - facet.lo[1]);
-        let (dims_x, dims_y) = (facet.dims[0] as f32, facet.dims[1] as f32);
-        for k in 0..n {
-            let (u, v, w) = (dx[k], dy[k], dz[k]);
-            let tk = num / (nv.x * u + nv.y * v + nv.z * w);
-            let xk = o0 + tk * (a0.x * u + a0.y * v + a0.z * w);
-            let yk = o1 + tk * (a1.x * u + a1.y * v + a1.z * w);
-            let (gx, gy) = (xk * facet.inv_cell, yk * facet.inv_cell);
-            // (NaN fails these.)
-            let inside = (tk > 0.0)
-                & (tk <= nearer[k])
-                & (tk < f32::INFINITY)
-                & (gx >= 0.0)
-                & (gy >= 0.0)
-                & (gx < dims_x)
-                & (gy < dims_y);
-            let (gx, gy) = (gx.max(0.0).min(dims_x - 1.0), gy.max(0.0).min(dims_y - 1.0));
-            // SAFETY: clamped into [0, dims − 1] (`max` drops NaN), within u32's range.
-            let (ix, iy) = unsafe { (gx.to_int_unchecked::<u32>(), gy.to_int_unchecked::<u32>()) };
-            let c = facet.first_cell + iy * facet.dims[0] + ix;
-            cell[k] = if inside { c } else { EMPTY };
-            (x[k], y[k], t[k]) = (xk + facet.lo[0], yk + facet.lo[1], tk);
-        }
-        const AHEAD: usize = 8;
+        // Grid cells are fetched `AHEAD` rays ahead, their first two outlines half as far.
+        const AHEAD: usize = 16;
         let margin = facet.margin;
         let mut last = EMPTY;
+        for &c in &cell[..n.min(AHEAD)] {
+            if c != EMPTY {
+                prefetch(&self.cells[c as usize]);
+            }
+        }
         for k in 0..n {
             if let Some(&c) = cell.get(k + AHEAD) {
                 if c != EMPTY {
                     prefetch(&self.cells[c as usize]);
+                }
+            }
+            if let Some(&c) = cell.get(k + AHEAD / 2) {
+                if c != EMPTY {
+                    let [s0, s1, ..] = self.cells[c as usize];
+                    for s in [s0, s1] {
+                        if s & OVERFLOW == 0 {
+                            prefetch(&self.edges[s as usize]);
+                        }
+                    }
                 }
             }
             let c = cell[k];
@@ -401,6 +452,57 @@ impl Facets {
                 Located::Outside
             });
         }
+    }
+
+    /// The first pass of [`Facets::locate_span`]: each ray's point in the facet's
+    /// plane coordinates, t and grid cell (`EMPTY` where it meets the plane behind, beyond
+    /// `nearer`, or outside the grid), branch-free (vectorised); the number of rays.
+    #[inline(always)]
+    fn points(
+        &self,
+        facet: &Facet,
+        o: Vec3,
+        [dx, dy, dz]: [&[f32]; 3],
+        nearer: &[f32],
+        min_cos: f32,
+        scratch: &mut LocateScratch,
+    ) -> usize {
+        let n = dx.len().min(dy.len()).min(dz.len()).min(nearer.len());
+        let LocateScratch { x, y, t, cell } = scratch;
+        for v in [&mut *x, &mut *y, &mut *t] {
+            v.clear();
+            v.resize(n, 0.0);
+        }
+        cell.clear();
+        cell.resize(n, EMPTY);
+        let num = facet.d - facet.n.dot(o);
+        let (nv, a0, a1) = (facet.n, facet.axes[0], facet.axes[1]);
+        let (o0, o1) = (o.dot(a0) - facet.lo[0], o.dot(a1) - facet.lo[1]);
+        let (dims_x, dims_y) = (facet.dims[0] as f32, facet.dims[1] as f32);
+        for k in 0..n {
+            let (u, v, w) = (dx[k], dy[k], dz[k]);
+            let den = nv.x * u + nv.y * v + nv.z * w;
+            let tk = num / den;
+            let xk = o0 + tk * (a0.x * u + a0.y * v + a0.z * w);
+            let yk = o1 + tk * (a1.x * u + a1.y * v + a1.z * w);
+            let (gx, gy) = (xk * facet.inv_cell, yk * facet.inv_cell);
+            // (NaN fails these.)
+            let inside = (tk > 0.0)
+                & (den.abs() >= min_cos)
+                & (tk <= nearer[k])
+                & (tk < f32::INFINITY)
+                & (gx >= 0.0)
+                & (gy >= 0.0)
+                & (gx < dims_x)
+                & (gy < dims_y);
+            let (gx, gy) = (gx.max(0.0).min(dims_x - 1.0), gy.max(0.0).min(dims_y - 1.0));
+            // SAFETY: clamped into [0, dims − 1] (`max` drops NaN), within u32's range.
+            let (ix, iy) = unsafe { (gx.to_int_unchecked::<u32>(), gy.to_int_unchecked::<u32>()) };
+            let c = facet.first_cell + iy * facet.dims[0] + ix;
+            cell[k] = if inside { c } else { EMPTY };
+            (x[k], y[k], t[k]) = (xk + facet.lo[0], yk + facet.lo[1], tk);
+        }
+        n
     }
 
     /// Calls `f` with each outline slot of grid cell `c`.
@@ -470,6 +572,94 @@ impl Facets {
             }
         });
     }
+
+    /// Calls `f` with each polygon of facet `f` (of several) whose outline comes within
+    /// `r` of the point where the ray `o + t·dir` meets the facet's plane, computed as
+    /// [`Facets::for_each_holding`] does (none where it does not meet the plane ahead);
+    /// a polygon may be called more than once.
+    pub fn for_each_within(&self, f: u32, o: Vec3, dir: Vec3, r: f32, call: impl FnMut(PolygonId)) {
+        let facet = &self.facets[f as usize];
+        let t = (facet.d - facet.n.dot(o)) / facet.n.dot(dir);
+        if !(t > 0.0 && t < f32::INFINITY) {
+            return;
+        }
+        let p = o + dir * t;
+        self.for_each_near(f, p, r, call)
+    }
+
+    /// Calls `f` with each polygon of facet `f` (of several) whose outline comes within
+    /// `r` of `p`'s projection on the facet's plane (a polygon may be called more than
+    /// once).
+    pub fn for_each_near(&self, f: u32, p: Vec3, r: f32, mut call: impl FnMut(PolygonId)) {
+        let facet = &self.facets[f as usize];
+        let (x, y) = (p.dot(facet.axes[0]), p.dot(facet.axes[1]));
+        let (dims_x, dims_y) = (facet.dims[0] as f32, facet.dims[1] as f32);
+        let lo = [
+            (x - r - facet.lo[0]) * facet.inv_cell,
+            (y - r - facet.lo[1]) * facet.inv_cell,
+        ];
+        let hi = [
+            (x + r - facet.lo[0]) * facet.inv_cell,
+            (y + r - facet.lo[1]) * facet.inv_cell,
+        ];
+        // (NaN fails these.)
+        if !(hi[0] >= 0.0 && hi[1] >= 0.0 && lo[0] < dims_x && lo[1] < dims_y) {
+            return;
+        }
+        let span = |a: f32, b: f32, d: f32| a.max(0.0) as u32..=b.min(d - 1.0) as u32;
+        for j in span(lo[1], hi[1], dims_y) {
+            for i in span(lo[0], hi[0], dims_x) {
+                let c = facet.first_cell + j * facet.dims[0] + i;
+                self.for_each_in_cell(c, |slot| {
+                    if self.inside_by(slot, x, y) >= -r {
+                        call(self.edges[slot as usize].polygon);
+                    }
+                });
+            }
+        }
+    }
+
+    /// The side of facet `f`'s grid cells (world units; 0 for a facet of one).
+    pub fn cell_size(&self, f: u32) -> f32 {
+        let inv = self.facets[f as usize].inv_cell;
+        if inv > 0.0 {
+            1.0 / inv
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Of 4 × 4 points spread over the grid cell of side `cell` at (x0, y0), how many lie
+/// inside the polygon of edges `lines`.
+fn coverage(lines: &[[f64; 3]], x0: f64, y0: f64, cell: f64) -> u32 {
+    let mut n = 0;
+    for a in 0..4 {
+        for b in 0..4 {
+            let (x, y) = (
+                x0 + (a as f64 + 0.5) * 0.25 * cell,
+                y0 + (b as f64 + 0.5) * 0.25 * cell,
+            );
+            n += u32::from(
+                lines
+                    .iter()
+                    .all(|&[la, lb, lc]| la * x + lb * y + lc >= 0.0),
+            );
+        }
+    }
+    n
+}
+
+/// The sine of half the sharpest angle of the polygon of corners `vs` (in order).
+fn sharpest_sin_half(vs: &[DVec2]) -> f64 {
+    let n = vs.len();
+    (0..n)
+        .map(|k| {
+            let (a, b, c) = (vs[(k + n - 1) % n], vs[k], vs[(k + 1) % n]);
+            let (e0, e1) = ((a - b).normalize_or_zero(), (c - b).normalize_or_zero());
+            (0.5 * e0.dot(e1).clamp(-1.0, 1.0).acos()).sin()
+        })
+        .fold(1.0, f64::min)
 }
 
 /// Working memory of [`Facets::locate_span`].
@@ -479,22 +669,6 @@ pub struct LocateScratch {
     y: Vec<f32>,
     t: Vec<f32>,
     cell: Vec<u32>,
-}
-
-/// Asks the CPU to fetch `x`'s cache line (where it can be asked).
-#[inline(always)]
-fn prefetch<T>(x: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch is a hint; it reads nothing the program sees, and `x` is a
-    // valid reference.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch(
-            (x as *const T).cast::<i8>(),
-            std::arch::x86_64::_MM_HINT_T0,
-        );
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
 }
 
 /// A polygon's plane, in f64, with the tolerances of [`FACET_TILT`].

@@ -23,5 +23,7 @@ pub use polygon::{
     Patch, Polygon, PolygonHit, MAX_CELLS_PER_POLYGON, MAX_COORDINATE, MIN_POLYGON_SIZE,
     MIN_POLYGON_SIZE_RELATIVE, PLANARITY_TOLERANCE,
 };
-pub use scene::{Camera, Material, PatchGrid, PolygonDesc, Scene, SceneDesc, MAX_PATCHES};
+pub use scene::{
+    Camera, Material, PatchGrid, PolygonDesc, Scene, SceneDesc, SeenTerms, MAX_PATCHES, SEVERAL,
+};
 pub use triangulate::{ear_clip, triangulate, Triangulation};

@@ -257,6 +257,12 @@ impl Polygon {
     /// # Panics
     /// If the three slices differ in length.
     #[inline]
+    /// Its one patch, for a polygon of one ([`Polygon::patches_at`] needs no lookup);
+    /// else None.
+    pub fn one_patch(&self) -> Option<PatchId> {
+        (self.nu == 1 && self.nv == 1).then_some(self.first_patch)
+    }
+
     pub fn patches_at(&self, u: &[f32], v: &[f32], out: &mut [PatchId]) {
         assert!(
             u.len() == out.len() && v.len() == out.len(),

@@ -109,6 +109,9 @@ pub struct Scene {
     /// Each polygon's [`Polygon::reach`] if it is front-only, else −∞; empty when no
     /// polygon is (what [`Scene::seen`] reads).
     front_only: Vec<f32>,
+    /// By polygon, together (what an item buffer's runs read, [`Scene::seen_terms`]):
+    /// its plane and its patch, or [`SEVERAL`] for a polygon of several.
+    seen_terms: Vec<SeenTerms>,
     /// The polygons across each edge, made on first use.
     edges: std::sync::OnceLock<crate::EdgeNeighbours>,
     /// Its facets, made on first use.
@@ -118,6 +121,36 @@ pub struct Scene {
     /// ([`Scene::for_rows`]).
     unit_desc: Option<(f64, Box<SceneDesc>)>,
     unit_scene: std::sync::OnceLock<Result<Box<Scene>, String>>,
+}
+
+/// [`SeenTerms::patch`] of a polygon of several patches.
+pub const SEVERAL: PatchId = PatchId::MAX;
+
+/// What an item buffer needs of the polygon a run of cells sees, 20 bytes together:
+/// its plane `normal · p = plane_d` ([`Polygon::plane_num`] from them gives the same
+/// bits), and its patch where it has one ([`Polygon::one_patch`]), else [`SEVERAL`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SeenTerms {
+    pub normal: Vec3,
+    pub plane_d: f32,
+    pub patch: PatchId,
+}
+
+impl SeenTerms {
+    fn of(p: &Polygon) -> SeenTerms {
+        let terms = p.terms();
+        SeenTerms {
+            normal: terms.normal,
+            plane_d: terms.plane_d,
+            patch: p.one_patch().unwrap_or(SEVERAL),
+        }
+    }
+
+    /// [`Polygon::plane_num`].
+    #[inline]
+    pub fn plane_num(&self, o: Vec3) -> f32 {
+        self.plane_d - self.normal.dot(o)
+    }
 }
 
 impl Scene {
@@ -223,6 +256,7 @@ impl Scene {
             });
         }
         let unit_desc = unit_desc.map(|(unit, d)| (unit, cut_alike(d, &polygons)));
+        let seen_terms = polygons.iter().map(SeenTerms::of).collect();
         Ok(Scene {
             polygons,
             patches,
@@ -232,6 +266,7 @@ impl Scene {
             groups,
             obstructions,
             front_only,
+            seen_terms,
             edges: std::sync::OnceLock::new(),
             facets: std::sync::OnceLock::new(),
             unit_desc,
@@ -331,6 +366,13 @@ impl Scene {
     pub fn facets(&self) -> &crate::Facets {
         self.facets.get_or_init(|| crate::Facets::of(self))
     }
+    /// By polygon: its plane and its one patch ([`SeenTerms`]), 20 bytes each, for
+    /// loops that visit polygons in scattered order.
+    #[inline]
+    pub fn seen_terms(&self) -> &[SeenTerms] {
+        &self.seen_terms
+    }
+
     /// Whether some polygon is front-only (a side of a two-sided polygon).
     pub fn has_front_only(&self) -> bool {
         !self.front_only.is_empty()

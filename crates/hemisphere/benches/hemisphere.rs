@@ -1,5 +1,5 @@
 //! `hemisphere/exact/{cube,loft}/180x720/{grid,brute,scan,hierarchy}` and
-//! `hemisphere/exact/{loft_patches,loft_triangles,loft_fine,blob_room}/180x720/{grid,scan,hierarchy}`:
+//! `hemisphere/exact/{loft_patches,loft_triangles,loft_fine,blob_room}/180x720/{grid,scan,hierarchy,facets}`:
 //! one exact hemisphere on
 //! one thread, cycling over patches spread across the scene (so each call is on another
 //! polygon than the last); throughput in rays (cells).
@@ -10,7 +10,9 @@ use rad_geometry::scenes::{
     blob_room, cube, loft, loft_fine_triangles, loft_patches, loft_triangles,
 };
 use rad_geometry::Scene;
-use rad_hemisphere::{Caster, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, Scan};
+use rad_hemisphere::{
+    Caster, FacetScan, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, Scan,
+};
 use std::hint::black_box;
 
 /// The voxel grid of `rad_pipeline::default_grid` (rad-pipeline is not a dev-dependency here).
@@ -48,9 +50,8 @@ fn bench_caster<C: Caster>(
     group.finish();
 }
 
-/// The mesh scenes: every polygon a patch, thousands to 115,200 of them (grid, scan and
-/// hierarchy;
-/// brute force would take seconds a hemisphere).
+/// The mesh scenes: every polygon a patch, thousands to 115,200 of them (grid, scan,
+/// hierarchy and facet scan; brute force would take seconds a hemisphere).
 fn meshes(c: &mut Criterion) {
     let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).expect("valid resolution");
     for (name, desc) in [
@@ -69,6 +70,15 @@ fn meshes(c: &mut Criterion) {
             &format!("{name}/180x720/hierarchy"),
             &scene,
             &tree,
+            &hemi,
+            10,
+        );
+        let facets = FacetScan::new(&scene);
+        bench_caster(
+            c,
+            &format!("{name}/180x720/facets"),
+            &scene,
+            &facets,
             &hemi,
             10,
         );

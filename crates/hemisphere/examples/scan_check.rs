@@ -9,7 +9,9 @@ use rad_geometry::scenes::{
     CORNELL_PATCH_MM,
 };
 use rad_geometry::Scene;
-use rad_hemisphere::{Caster, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, ScanScratch};
+use rad_hemisphere::{
+    Caster, FacetScan, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, ScanScratch,
+};
 
 fn hs_tests(h: &rad_hemisphere::HierarchyScratch) -> f64 {
     h.scan_stats().tests as f64
@@ -38,96 +40,157 @@ fn main() {
         if only.as_ref().is_some_and(|o| o != name) {
             continue;
         }
-        let scene = Scene::new(desc).unwrap();
-        let n = scene.patches().len();
-        let patches: Vec<u32> = (0..32).map(|k| ((k * n / 32 + 37) % n) as u32).collect();
-        let g = VoxelGrid::build(&scene, &VoxelGridConfig::DEFAULT).unwrap();
-        let mut s = g.new_scratch();
-        let mut ss = ScanScratch::default();
-        let t = std::time::Instant::now();
-        let tree = Hierarchy::new(&scene);
-        let build = t.elapsed().as_secs_f64();
-        let mut hs = tree.scratch();
-        let (mut a, mut b, mut c) = (
-            ItemBuffer::default(),
-            ItemBuffer::default(),
-            ItemBuffer::default(),
-        );
-        // PROFILE=1: the hierarchy alone, the same patches ten times (for a profiler).
-        if std::env::var("PROFILE").is_ok_and(|v| v == "1") {
-            let t = std::time::Instant::now();
-            for _ in 0..10 {
-                for &p in &patches {
-                    tree.item_buffer(&scene, &hemi, p, &mut hs, &mut c);
-                }
-            }
-            let ms = t.elapsed().as_secs_f64() * 1e3 / (10 * patches.len()) as f64;
-            let mut seen = 0usize;
-            for &p in &patches {
-                tree.item_buffer(&scene, &hemi, p, &mut hs, &mut c);
-                let mut ids = c.patch.clone();
-                ids.sort_unstable();
-                ids.dedup();
-                seen += ids.len();
-            }
-            println!(
-                "{name}: {} patches seen a hemisphere ({} patches in all)",
-                seen / patches.len(),
-                n
-            );
-            let h = hs.stats;
-            let per = h.hemispheres as f64;
-            println!("{name}: hierarchy {ms:.2} ms per hemisphere; {:.0} nodes, {:.0} occluded, {:.0} polygons, {:.0} flat, {:.0} own, {:.2} tests/cell, {:.0} coplanar skips, {:.0} full", h.nodes as f64 / per, h.occluded as f64 / per, h.polygons as f64 / per, h.flat as f64 / per, h.own as f64 / per, hs_tests(&hs) / per / hemi.n_cells() as f64, hs.scan_stats().coplanar_skips as f64 / per, hs.scan_stats().full as f64 / per);
-            continue;
-        }
-        let (mut tg, mut ts, mut th) = (0.0, 0.0, 0.0);
-        let (mut bad, mut bad_h) = (0, 0);
-        for &p in &patches {
-            let t = std::time::Instant::now();
-            hemi.cast(&scene, &g, p, &mut s, &mut a);
-            tg += t.elapsed().as_secs_f64();
-            let t = std::time::Instant::now();
-            hemi.scan(&scene, p, &mut ss, &mut b);
-            ts += t.elapsed().as_secs_f64();
-            let t = std::time::Instant::now();
-            tree.item_buffer(&scene, &hemi, p, &mut hs, &mut c);
-            th += t.elapsed().as_secs_f64();
-            let differ = |b: &ItemBuffer| {
-                (0..a.patch.len())
-                    .filter(|&k| {
-                        a.patch[k] != b.patch[k] || a.dist[k].to_bits() != b.dist[k].to_bits()
-                    })
-                    .count()
-            };
-            let (diff, diff_h) = (differ(&b), differ(&c));
-            if diff > 0 {
-                bad += 1;
-                eprintln!("{name} patch {p}: {diff} cells differ (scan)");
-            }
-            if diff_h > 0 {
-                bad_h += 1;
-                eprintln!("{name} patch {p}: {diff_h} cells differ (hierarchy)");
-            }
-        }
-        let k = patches.len() as f64;
-        println!(
-            "{name}: grid {:.2} ms, scan {:.2} ms per hemisphere; {:.2} tests/cell, {:.2} full polygons/hemisphere; {bad} differing",
-            tg / k * 1e3,
-            ts / k * 1e3,
-            ss.stats.tests as f64 / ss.stats.hemispheres as f64 / hemi.n_cells() as f64,
-            ss.stats.full as f64 / ss.stats.hemispheres as f64
-        );
-        let h = hs.stats;
-        let per = h.hemispheres as f64;
-        println!(
-            "  hierarchy {:.2} ms per hemisphere ({} nodes, built in {:.1} ms); per hemisphere {:.0} nodes, {:.0} behind, {:.0} occluded, {:.0} polygons; {bad_h} differing",
-            th / k * 1e3,
-            tree.node_count(),
-            build * 1e3,
-            h.nodes as f64 / per,
-            h.behind as f64 / per,
-            h.occluded as f64 / per,
-            h.polygons as f64 / per,
-        );
+        check(name, desc, &hemi);
     }
+}
+
+/// `caster` alone on `patches`, ten times over: ms per hemisphere, patches seen a
+/// hemisphere, and `stats` of its scratch.
+fn profile<C: Caster>(
+    name: &str,
+    scene: &Scene,
+    hemi: &Hemisphere,
+    patches: &[u32],
+    caster: &C,
+    stats: impl Fn(&C::Scratch) -> String,
+) {
+    let mut s = caster.scratch();
+    let mut buf = ItemBuffer::default();
+    let t = std::time::Instant::now();
+    for _ in 0..10 {
+        for &p in patches {
+            caster.item_buffer(scene, hemi, p, &mut s, &mut buf);
+        }
+    }
+    let ms = t.elapsed().as_secs_f64() * 1e3 / (10 * patches.len()) as f64;
+    let mut seen = 0usize;
+    for &p in patches {
+        caster.item_buffer(scene, hemi, p, &mut s, &mut buf);
+        let mut ids = buf.patch.clone();
+        ids.sort_unstable();
+        ids.dedup();
+        seen += ids.len();
+    }
+    println!(
+        "{name}: {ms:.2} ms per hemisphere, {} patches seen a hemisphere ({} in all); {}",
+        seen / patches.len(),
+        scene.patches().len(),
+        stats(&s)
+    );
+}
+
+/// Every caster against the grid on 32 patches of `desc` (or one caster profiled).
+fn check(name: &str, desc: rad_geometry::SceneDesc, hemi: &Hemisphere) {
+    let hemi = hemi.clone();
+    let scene = Scene::new(desc).unwrap();
+    let n = scene.patches().len();
+    let patches: Vec<u32> = (0..32).map(|k| ((k * n / 32 + 37) % n) as u32).collect();
+    let g = VoxelGrid::build(&scene, &VoxelGridConfig::DEFAULT).unwrap();
+    let mut s = g.new_scratch();
+    let mut ss = ScanScratch::default();
+    let t = std::time::Instant::now();
+    let tree = Hierarchy::new(&scene);
+    let build = t.elapsed().as_secs_f64();
+    let mut hs = tree.scratch();
+    let t = std::time::Instant::now();
+    let fscan = FacetScan::new(&scene);
+    let fbuild = t.elapsed().as_secs_f64();
+    let mut fs = fscan.scratch();
+    let (mut a, mut b, mut c, mut e) = (
+        ItemBuffer::default(),
+        ItemBuffer::default(),
+        ItemBuffer::default(),
+        ItemBuffer::default(),
+    );
+    // PROFILE=facets: the facet scan alone, the same patches ten times; PROFILE=1:
+    // the hierarchy alone, likewise (for a profiler).
+    match std::env::var("PROFILE").as_deref() {
+        Ok("facets") => {
+            profile(name, &scene, &hemi, &patches, &fscan, |s| {
+                let f = s.stats;
+                format!(
+                    "{:.0} polygons one by one; {:.0} cells located, {:.0} not outside, {:.0} plain",
+                    f.one_by_one_polygons as f64 / f.hemispheres as f64,
+                    f.cells as f64 / f.hemispheres as f64,
+                    f.cells_near as f64 / f.hemispheres as f64,
+                    f.plain as f64 / f.hemispheres as f64,
+                )
+            });
+            return;
+        }
+        Ok("1") => {
+            profile(name, &scene, &hemi, &patches, &tree, |hs| {
+                let h = hs.stats;
+                let per = h.hemispheres as f64;
+                format!("{:.0} nodes, {:.0} occluded, {:.0} polygons, {:.0} flat, {:.0} own, {:.2} tests/cell, {:.0} coplanar skips, {:.0} full", h.nodes as f64 / per, h.occluded as f64 / per, h.polygons as f64 / per, h.flat as f64 / per, h.own as f64 / per, hs_tests(hs) / per / hemi.n_cells() as f64, hs.scan_stats().coplanar_skips as f64 / per, hs.scan_stats().full as f64 / per)
+            });
+            return;
+        }
+        _ => {}
+    }
+    let (mut tg, mut ts, mut th, mut tf) = (0.0, 0.0, 0.0, 0.0);
+    let (mut bad, mut bad_h, mut bad_f) = (0, 0, 0);
+    for &p in &patches {
+        let t = std::time::Instant::now();
+        hemi.cast(&scene, &g, p, &mut s, &mut a);
+        tg += t.elapsed().as_secs_f64();
+        let t = std::time::Instant::now();
+        hemi.scan(&scene, p, &mut ss, &mut b);
+        ts += t.elapsed().as_secs_f64();
+        let t = std::time::Instant::now();
+        tree.item_buffer(&scene, &hemi, p, &mut hs, &mut c);
+        th += t.elapsed().as_secs_f64();
+        let t = std::time::Instant::now();
+        fscan.item_buffer(&scene, &hemi, p, &mut fs, &mut e);
+        tf += t.elapsed().as_secs_f64();
+        let differ = |b: &ItemBuffer| {
+            (0..a.patch.len())
+                .filter(|&k| a.patch[k] != b.patch[k] || a.dist[k].to_bits() != b.dist[k].to_bits())
+                .count()
+        };
+        let (diff, diff_h, diff_f) = (differ(&b), differ(&c), differ(&e));
+        if diff_f > 0 {
+            bad_f += 1;
+            eprintln!("{name} patch {p}: {diff_f} cells differ (facets)");
+        }
+        if diff > 0 {
+            bad += 1;
+            eprintln!("{name} patch {p}: {diff} cells differ (scan)");
+        }
+        if diff_h > 0 {
+            bad_h += 1;
+            eprintln!("{name} patch {p}: {diff_h} cells differ (hierarchy)");
+        }
+    }
+    let k = patches.len() as f64;
+    println!(
+        "{name}: grid {:.2} ms, scan {:.2} ms per hemisphere; {:.2} tests/cell, {:.2} full polygons/hemisphere; {bad} differing",
+        tg / k * 1e3,
+        ts / k * 1e3,
+        ss.stats.tests as f64 / ss.stats.hemispheres as f64 / hemi.n_cells() as f64,
+        ss.stats.full as f64 / ss.stats.hemispheres as f64
+    );
+    let h = hs.stats;
+    let per = h.hemispheres as f64;
+    println!(
+        "  hierarchy {:.2} ms per hemisphere ({} nodes, built in {:.1} ms); per hemisphere {:.0} nodes, {:.0} behind, {:.0} occluded, {:.0} polygons; {bad_h} differing",
+        th / k * 1e3,
+        tree.node_count(),
+        build * 1e3,
+        h.nodes as f64 / per,
+        h.behind as f64 / per,
+        h.occluded as f64 / per,
+        h.polygons as f64 / per,
+    );
+    let f = fs.stats;
+    let per = f.hemispheres as f64;
+    println!(
+        "  facets {:.2} ms per hemisphere ({} facets, built in {:.1} ms); per hemisphere {:.1} located, {:.1} one by one, {:.2} tests/cell; {bad_f} differing",
+        tf / k * 1e3,
+        fscan.facet_count(),
+        fbuild * 1e3,
+        f.located as f64 / per,
+        f.one_by_one as f64 / per,
+        fs.scan_stats().tests as f64 / per / hemi.n_cells() as f64,
+    );
 }

@@ -10,6 +10,7 @@
 
 mod caster;
 mod cells;
+mod facet_scan;
 mod hierarchy;
 mod lambert;
 mod row;
@@ -17,6 +18,7 @@ mod scan;
 
 pub use caster::{Caster, Scan, Viewpoint};
 pub use cells::{delta_form_factors, DeltaRule, Hemisphere, HemisphereConfig, MAX_CELLS};
+pub use facet_scan::{FacetScan, FacetScanScratch, FacetScanStats};
 pub use hierarchy::{Hierarchy, HierarchyRays, HierarchyScratch, HierarchyStats, TILE};
 pub use lambert::point_to_polygon_form_factor;
 pub use rad_core::{BACK, ESCAPED};

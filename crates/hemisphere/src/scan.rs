@@ -18,7 +18,7 @@
 use crate::{Hemisphere, ItemBuffer, Viewpoint};
 use glam::{DVec3, Vec3};
 use rad_core::{with_isa, Hit, Isa, PatchId, PolygonId, BACK, ESCAPED, NO_POLYGON};
-use rad_geometry::{OriginTerms, Polygon, Scene, Shape, Triangle};
+use rad_geometry::{OriginTerms, Polygon, Scene, Shape, Triangle, SEVERAL};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::ops::Range;
 
@@ -81,7 +81,7 @@ const NEAR_PLANE: f64 = 10.0;
 
 /// Cells whose ray may meet a polygon.
 #[derive(Debug, PartialEq)]
-enum Region {
+pub(crate) enum Region {
     None,
     All,
     /// θ in [lo, hi]; φ in [lo, hi] (unwrapped, may leave [0, 2π)) or every φ.
@@ -280,7 +280,6 @@ impl Hemisphere {
         buf: &mut ItemBuffer,
     ) {
         let n_cells = self.n_cells();
-        let polygons = scene.polygons();
         buf.patch.clear();
         buf.dist.clear();
         buf.patch.reserve(n_cells);
@@ -288,15 +287,11 @@ impl Hemisphere {
         buf.patch.resize(n_cells, 0);
         buf.dist.resize(n_cells, 0.0);
         // Front hits need a negative plane term (see above).
-        let o = at.o;
-        let front = |p: PolygonId| polygons[p as usize].plane_num(o) < 0.0;
-        hits.items(
-            polygons,
-            front,
-            &mut buf.patch,
-            &mut buf.dist,
-            |_, p, ids| ids.fill(if p == NO_POLYGON { ESCAPED } else { BACK }),
-        );
+        let (o, seen) = (at.o, scene.seen_terms());
+        let front = |p: PolygonId| seen[p as usize].plane_num(o) < 0.0;
+        hits.items(scene, front, &mut buf.patch, &mut buf.dist, |_, p, ids| {
+            ids.fill(if p == NO_POLYGON { ESCAPED } else { BACK })
+        });
     }
 }
 
@@ -372,6 +367,44 @@ impl NearestHits {
         }
     }
 
+    /// [`NearestHits::test_cell`] with the inside test decided by the polygon's
+    /// [`Shape`] (reading `poly` only where the shape does not decide, as
+    /// [`Shape::hit_from`] does): the same arithmetic, so the same answer to the bit.
+    #[inline]
+    pub fn test_cell_shaped<'p>(
+        &mut self,
+        shape: &Shape,
+        poly: impl FnOnce() -> &'p Polygon,
+        id: PolygonId,
+        h: &OriginTerms,
+        c: usize,
+    ) {
+        self.tests += 1;
+        let (x, y, z) = (self.dx[c], self.dy[c], self.dz[c]);
+        let denom = h.denom(x, y, z);
+        let t = h.num / denom;
+        let (u, v) = h.uv(t, x, y, z);
+        let (bt, bp) = (self.best_t[c], self.best_p[c]);
+        let nearer = (t < bt) | ((t == bt) & (id < bp) & (t < f32::INFINITY));
+        if !((t > 0.0) & nearer & h.in_bounds(u, v)) {
+            return;
+        }
+        let inside = match shape {
+            Shape::Parallelogram if denom < 0.0 => true,
+            Shape::Triangle(tri) => {
+                let limit = if denom < 0.0 { -tri.eps } else { tri.eps };
+                tri.edges
+                    .iter()
+                    .all(|e| e[0] * u + e[1] * v + e[2] >= limit)
+            }
+            _ => poly().accepts(denom, false, u, v),
+        };
+        if inside {
+            (self.best_t[c], self.best_p[c]) = (t, id);
+            (self.best_u[c], self.best_v[c]) = (u, v);
+        }
+    }
+
     /// [`NearestHits::test`], or with `ANY_ORDER` the same with ties in t going to the
     /// lower polygon id whatever the order of the calls (so that polygons may come in
     /// any order and the nearest hits are still the grid's).
@@ -412,7 +445,7 @@ impl NearestHits {
     /// (no hit: `p` is [`NO_POLYGON`]; or a back face) go to `other(cells, p, their ids)`.
     pub fn items(
         &self,
-        polygons: &[Polygon],
+        scene: &Scene,
         front: impl Fn(PolygonId) -> bool,
         patch: &mut [PatchId],
         dist: &mut [f32],
@@ -421,14 +454,28 @@ impl NearestHits {
         let n = self.best_p.len();
         assert!(patch.len() == n && dist.len() == n, "one entry per cell");
         dist.copy_from_slice(&self.best_t);
+        let (polygons, seen) = (scene.polygons(), scene.seen_terms());
+        // (The polygons a few runs ahead are fetched early: a mesh's are scattered.)
+        const AHEAD: usize = 16;
         let mut k = 0;
         while k < n {
+            if let Some(&q) = self.best_p.get(k + AHEAD) {
+                if let Some(terms) = seen.get(q as usize) {
+                    rad_core::prefetch(terms);
+                }
+            }
             let p = self.best_p[k];
             let mut end = k + 1;
             while end < n && self.best_p[end] == p {
                 end += 1;
             }
             if p != NO_POLYGON && front(p) {
+                let one = seen[p as usize].patch;
+                if one != SEVERAL {
+                    patch[k..end].fill(one);
+                    k = end;
+                    continue;
+                }
                 polygons[p as usize].patches_at(
                     &self.best_u[k..end],
                     &self.best_v[k..end],
@@ -854,21 +901,34 @@ fn padded_origin(poly: &Polygon) -> DVec3 {
 /// patch; `num` is the grid's f32 plane term (`d − n·o`); `padded` its
 /// [`padded_corners`].
 fn region(poly: &Polygon, o: DVec3, num: f32, frame: [DVec3; 3], padded: &[DVec3; 4]) -> Region {
+    let gap = (poly.normal().as_dvec3().dot(o) - poly.plane_offset() as f64).abs();
+    region_of(padded, padded_origin(poly), gap, o, num, frame, 0.0)
+}
+
+/// [`region`] of any convex quadrilateral `padded` (world corners, in order) on a plane
+/// `gap` from `o` (whose f32 term is `num`), `origin` a point of it, with `extra` added
+/// to the rounding slack (a distance: how far the points it bounds may lie off it).
+pub(crate) fn region_of(
+    padded: &[DVec3; 4],
+    origin: DVec3,
+    gap: f64,
+    o: DVec3,
+    num: f32,
+    frame: [DVec3; 3],
+    extra: f64,
+) -> Region {
     let corners = padded.map(|p| {
         let w = p - o;
         DVec3::new(frame[0].dot(w), frame[1].dot(w), frame[2].dot(w))
     });
-    let origin = padded_origin(poly);
     // f32 rounding of the grid's terms, as a distance: a few hundred ulps of the
     // coordinates involved, hit distances included.
     let scale = corners.iter().map(|c| c.length()).fold(0.0, f64::max)
         + o.abs().max_element()
         + origin.abs().max_element();
-    let slack = 1e-5 * scale;
+    let slack = 1e-5 * scale + extra;
     // The plane passes within rounding of the origin: no box is reliable.
-    let plane = (num as f64)
-        .abs()
-        .min((poly.normal().as_dvec3().dot(o) - poly.plane_offset() as f64).abs());
+    let plane = (num as f64).abs().min(gap);
     if plane <= NEAR_PLANE * slack {
         return Region::All;
     }
@@ -946,6 +1006,13 @@ fn region(poly: &Polygon, o: DVec3, num: f32, frame: [DVec3; 3], padded: &[DVec3
     }
 }
 
+impl ScanOrigin {
+    /// The lowest cosθ of any cell's direction of `hemi` (made once).
+    pub(crate) fn min_cos(&mut self, hemi: &Hemisphere) -> f64 {
+        *self.min_cos.get_or_insert_with(|| hemi.min_cell_cos())
+    }
+}
+
 impl Hemisphere {
     /// The lowest cosθ of any cell's direction (its last ring's).
     fn min_cell_cos(&self) -> f64 {
@@ -968,7 +1035,12 @@ impl Hemisphere {
 /// than `t_max` plus its inside tolerance (and margins for f32 rounding) is never hit
 /// either. Skipping such a polygon changes no cell: the grid's test on it would fail
 /// on every cell.
-fn cannot_hit_near_plane(poly: &Polygon, h: &OriginTerms, own_n: DVec3, min_cos: f64) -> bool {
+pub(crate) fn cannot_hit_near_plane(
+    poly: &Polygon,
+    h: &OriginTerms,
+    own_n: DVec3,
+    min_cos: f64,
+) -> bool {
     // The normals are f32 unit vectors, each 1 only within a few 1e-8: normalise in
     // f64, and take cos(γ + θ_max) = cos γ cos θ_max − sin γ sin θ_max without acos,
     // which would magnify their rounding by 1 / sin γ.

@@ -19,12 +19,21 @@ pub enum CasterKind {
     Grid,
     /// The polygon scan over a bounding volume hierarchy
     /// ([`rad_hemisphere::Hierarchy`]): subtrees hidden behind nearer hits or behind
-    /// the tangent plane are skipped whole; the fastest on meshes.
+    /// the tangent plane are skipped whole; the fastest on curved meshes.
     Hierarchy,
+    /// The polygon scan over a mesh's flat pieces ([`rad_hemisphere::FacetScan`]): each
+    /// facet's cells find their triangle in the facet's grid; the fastest on meshes of a
+    /// few large flat pieces cut into many triangles.
+    Facets,
 }
 
 impl CasterKind {
-    pub const ALL: [CasterKind; 3] = [CasterKind::Scan, CasterKind::Grid, CasterKind::Hierarchy];
+    pub const ALL: [CasterKind; 4] = [
+        CasterKind::Scan,
+        CasterKind::Grid,
+        CasterKind::Hierarchy,
+        CasterKind::Facets,
+    ];
 
     /// Below this many polygons the plain scan is the default, at or above it the
     /// hierarchy (measured on the bench scenes, one core, 180 × 720: on the report's
@@ -32,22 +41,37 @@ impl CasterKind {
     /// Cornell mesh up the hierarchy is faster, 2.3 times on the 115k-triangle loft).
     pub const HIERARCHY_FROM: usize = 1024;
 
-    /// Its stable name: `scan`, `grid` or `hierarchy`.
+    /// From this many polygons a facet on average, the facet scan is the default for a
+    /// scene of [`CasterKind::HIERARCHY_FROM`] polygons or more (measured on the bench
+    /// scenes, one core, 180 × 720, `MESHES=1 cargo run --release -p rad-hemisphere
+    /// --example scan_check`: 640 a facet on the 115k-triangle loft, 2.1 times the
+    /// hierarchy's speed; 160 on the 29k-triangle loft, 1.4 times; 80 on the loft cut a
+    /// polygon a patch, 0.77 times; about 1 on a room with a curved 20k-triangle blob,
+    /// 0.28 times).
+    pub const FACETS_FROM: usize = 128;
+
+    /// Its stable name: `scan`, `grid`, `hierarchy` or `facets`.
     pub fn name(self) -> &'static str {
         match self {
             CasterKind::Scan => "scan",
             CasterKind::Grid => "grid",
             CasterKind::Hierarchy => "hierarchy",
+            CasterKind::Facets => "facets",
         }
     }
 
-    /// The fastest caster for a scene of `polygons` polygons (the documented rule:
-    /// [`CasterKind::HIERARCHY_FROM`]).
-    pub fn fastest_for(polygons: usize) -> CasterKind {
-        if polygons >= CasterKind::HIERARCHY_FROM {
-            CasterKind::Hierarchy
-        } else {
+    /// The fastest caster for `scene` (the documented rule: the plain scan below
+    /// [`CasterKind::HIERARCHY_FROM`] polygons; from there the facet scan where its
+    /// facets hold [`CasterKind::FACETS_FROM`] polygons or more on average, else the
+    /// hierarchy).
+    pub fn fastest_for(scene: &rad_geometry::Scene) -> CasterKind {
+        let polygons = scene.polygons().len();
+        if polygons < CasterKind::HIERARCHY_FROM {
             CasterKind::Scan
+        } else if polygons >= CasterKind::FACETS_FROM * scene.facets().len() {
+            CasterKind::Facets
+        } else {
+            CasterKind::Hierarchy
         }
     }
 }
@@ -81,7 +105,7 @@ impl RowMethod {
     /// polygons (0.98, 85 %), nor on a curved 21,808-triangle mesh (0.93: 6 %
     /// estimated). Returns the method and the share estimated (0 where not counted).
     pub fn auto_for(scene: &Scene) -> Result<(RowMethod, f64), Error> {
-        let caster = CasterKind::fastest_for(scene.polygons().len());
+        let caster = CasterKind::fastest_for(scene);
         let n = scene.patches().len();
         if n >= AUTO_ESTIMATED_FROM {
             let schedule = Schedule::of(scene.for_rows()?);
@@ -181,7 +205,13 @@ impl FromStr for CasterKind {
     type Err = Error;
 
     fn from_str(s: &str) -> Result<CasterKind, Error> {
-        caster(s).ok_or_else(|| bad("caster", s, "expected scan, grid or hierarchy".into()))
+        caster(s).ok_or_else(|| {
+            bad(
+                "caster",
+                s,
+                "expected scan, grid, hierarchy or facets".into(),
+            )
+        })
     }
 }
 
@@ -236,7 +266,7 @@ mod tests {
     #[test]
     fn names_read_back() {
         let all = RowMethod::all();
-        assert_eq!(all.len(), 9);
+        assert_eq!(all.len(), 12);
         for m in all {
             assert_eq!(m.name().parse::<RowMethod>().unwrap(), m, "{m}");
             let short: RowMethod = m.rows_name().parse().unwrap();

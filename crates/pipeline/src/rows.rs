@@ -6,7 +6,7 @@ use rad_accel::VoxelGrid;
 use rad_core::PatchId;
 use rad_estimator::{estimate_rows, estimate_windows, EstimateStats, Schedule, Source, WindowsJob};
 use rad_geometry::Scene;
-use rad_hemisphere::{compute_rows, Caster, Hemisphere, Hierarchy, Row, Scan};
+use rad_hemisphere::{compute_rows, Caster, FacetScan, Hemisphere, Hierarchy, Row, Scan};
 use std::collections::HashMap;
 
 /// Rows made by one method.
@@ -332,6 +332,7 @@ pub(crate) fn with_caster<J: CasterJob>(
         CasterKind::Scan => job.run(scene, &Scan),
         CasterKind::Grid => job.run(scene, &VoxelGrid::build(scene, &default_grid())?),
         CasterKind::Hierarchy => job.run(scene, &Hierarchy::new(scene)),
+        CasterKind::Facets => job.run(scene, &FacetScan::new(scene)),
     }
 }
 

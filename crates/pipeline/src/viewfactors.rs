@@ -62,7 +62,7 @@ impl ViewFactorOptions {
             by: Grouping::Polygon,
             origins: DEFAULT_ORIGINS,
             enclosure: Enclosure::Raw,
-            caster: CasterKind::fastest_for(scene.polygons().len()),
+            caster: CasterKind::fastest_for(scene),
             script_f: false,
         }
     }

@@ -133,7 +133,7 @@ fn scene_section(
         .filter(|w| !w.estimated.is_empty())
         .cloned()
         .collect();
-    let best = CasterKind::fastest_for(scene.polygons().len());
+    let best = CasterKind::fastest_for(scene);
     let tree = Hierarchy::new(scene);
     let settings = [Mode::Improved, Mode::Faithful].map(|mode| Setting {
         name: format!("{}, defaults", mode.name()),

@@ -657,8 +657,8 @@ impl Reproduction {
             sc.resolution[1],
             sc.scenes.first().map_or(0, |s| s.hemispheres)
         );
-        let _ = writeln!(w, "| scene | polygons | grid | scan | hierarchy | same bits | default | exact rows | faithful rows (estimated) | improved rows (estimated) |");
-        let _ = writeln!(w, "|---|---|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(w, "| scene | polygons | grid | scan | hierarchy | facets | same bits | default | exact rows | faithful rows (estimated) | improved rows (estimated) |");
+        let _ = writeln!(w, "|---|---|---|---|---|---|---|---|---|---|---|");
         for s in &sc.scenes {
             let ms = |c: &str| {
                 s.casters
@@ -677,12 +677,13 @@ impl Reproduction {
             };
             let _ = writeln!(
                 w,
-                "| {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {} | {} | {} |",
+                "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {} | {} | {} | {} |",
                 s.scene,
                 s.polygons,
                 ms("grid"),
                 ms("scan"),
                 ms("hierarchy"),
+                ms("facets"),
                 if s.identical { "yes" } else { "**no**" },
                 s.default_caster,
                 m(0),

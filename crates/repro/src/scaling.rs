@@ -1,5 +1,5 @@
 //! Exact hemispheres as scenes grow: milliseconds a hemisphere against the polygon
-//! count, for each caster (the voxel grid, the polygon scan, the hierarchy), on the
+//! count, for each caster (the voxel grid, the polygon scan, the hierarchy, the facet scan), on the
 //! loft and every mesh scene, on one thread; and each estimator mode's rows with their
 //! centres through the fastest caster, where the scene has patches to estimate.
 
@@ -8,7 +8,9 @@ use rad_accel::VoxelGrid;
 use rad_estimator::windows;
 use rad_geometry::scenes::{blob_room, loft, loft_fine_triangles, loft_patches, loft_triangles};
 use rad_geometry::{Scene, SceneDesc};
-use rad_hemisphere::{Caster, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, Scan};
+use rad_hemisphere::{
+    Caster, FacetScan, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, Scan,
+};
 use rad_pipeline::{default_grid, rows, CasterKind, Mode, RowMethod};
 use serde::Serialize;
 use std::time::Instant;
@@ -105,9 +107,13 @@ fn scene_scaling(
     let t = Instant::now();
     let tree = Hierarchy::new(scene);
     let tree_ms = t.elapsed().as_secs_f64() * 1e3;
+    let t = Instant::now();
+    let facets = FacetScan::new(scene);
+    let facets_ms = t.elapsed().as_secs_f64() * 1e3;
     let (g, g_bufs) = time_caster(scene, hemi, &grid, &patches);
     let (s, s_bufs) = time_caster(scene, hemi, &Scan, &patches);
     let (h, h_bufs) = time_caster(scene, hemi, &tree, &patches);
+    let (f, f_bufs) = time_caster(scene, hemi, &facets, &patches);
     let casters = vec![
         CasterTime {
             caster: "grid",
@@ -124,8 +130,13 @@ fn scene_scaling(
             ms_per_hemisphere: h,
             build_ms: tree_ms,
         },
+        CasterTime {
+            caster: "facets",
+            ms_per_hemisphere: f,
+            build_ms: facets_ms,
+        },
     ];
-    let best = CasterKind::fastest_for(scene.polygons().len());
+    let best = CasterKind::fastest_for(scene);
     // Whole windows around the patches, so that estimated rows have their centres.
     let all = windows(scene);
     let mut window_patches = Vec::new();
@@ -168,7 +179,7 @@ fn scene_scaling(
         patches: scene.patches().len(),
         hemispheres: patches.len(),
         casters,
-        identical: g_bufs == s_bufs && g_bufs == h_bufs,
+        identical: g_bufs == s_bufs && g_bufs == h_bufs && g_bufs == f_bufs,
         default_caster: best.name(),
         modes,
     })

@@ -333,7 +333,7 @@ fn all_methods(
         let hashes: Vec<u64> = rows.iter().map(row_hash).collect();
         match method.caster() {
             CasterKind::Grid => grid_hashes.push((method.rows_name(), hashes)),
-            CasterKind::Scan | CasterKind::Hierarchy => {
+            CasterKind::Scan | CasterKind::Hierarchy | CasterKind::Facets => {
                 run.identical_to_grid = grid_hashes
                     .iter()
                     .find(|(name, _)| *name == method.rows_name())

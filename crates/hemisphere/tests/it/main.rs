@@ -1,6 +1,7 @@
 //! Integration tests of rad-hemisphere.
 
 mod analytic;
+mod facets;
 mod origins;
 mod props;
 mod scale;

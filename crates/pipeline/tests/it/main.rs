@@ -428,7 +428,7 @@ fn auto_estimates_large_flat_meshes_only() {
             estimated,
             "{name}: {method}, {share:.2} estimated by windows"
         );
-        let fastest = CasterKind::fastest_for(scene.polygons().len());
+        let fastest = CasterKind::fastest_for(&scene);
         assert!(matches!(
             method,
             RowMethod::Exact { caster } | RowMethod::Estimated { centres: caster, .. }

@@ -1,0 +1,125 @@
+//! The facet scan gives the voxel grid's item buffers, to the bit, on meshes of flat
+//! pieces: random scenes of intersecting polygons, each cut into a fan of one-patch
+//! triangles (thin ones too) that join into facets, some pressed into planes of constant
+//! x, y or z (whose triangles share their facet's plane to the bit).
+
+use proptest::prelude::*;
+use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
+use rad_core::RayCast;
+use rad_geometry::{PatchGrid, PolygonDesc, Scene, SceneDesc};
+use rad_hemisphere::{Caster, FacetScan, Hemisphere, HemisphereConfig, ItemBuffer};
+use rad_testkit::{random_scene, two_sided_flags, with_two_sided};
+
+/// Every polygon of `desc` cut into a fan of one-patch triangles from its centroid, each
+/// edge split in `cuts` pieces (the split points made once an edge, so that neighbours
+/// share them to the bit).
+fn fans(desc: SceneDesc, cuts: &[usize]) -> SceneDesc {
+    let mut polygons = Vec::new();
+    for (p, &m) in desc.polygons.iter().zip(cuts.iter().cycle()) {
+        let vs = &p.vertices;
+        let c = vs.iter().copied().sum::<glam::DVec3>() / vs.len() as f64;
+        let mut ring = Vec::new();
+        for k in 0..vs.len() {
+            let (a, b) = (vs[k], vs[(k + 1) % vs.len()]);
+            for j in 0..m {
+                ring.push(a + (b - a) * (j as f64 / m as f64));
+            }
+        }
+        for k in 0..ring.len() {
+            polygons.push(PolygonDesc {
+                name: format!("{} {k}", p.name),
+                vertices: vec![c, ring[k], ring[(k + 1) % ring.len()]],
+                grid: PatchGrid::Cells { nu: 1, nv: 1 },
+                ..p.clone()
+            });
+        }
+    }
+    SceneDesc { polygons, ..desc }
+}
+
+/// `desc` with polygon k pressed into a plane of constant x, y or z (k mod 3) through
+/// its first vertex: its fan's triangles then share their f32 plane with their facet to
+/// the bit (the facet scan's shortcut for them).
+fn axis_aligned(mut desc: SceneDesc) -> SceneDesc {
+    for (k, p) in desc.polygons.iter_mut().enumerate() {
+        let axis = k % 3;
+        let c = p.vertices[0][axis];
+        for v in &mut p.vertices {
+            v[axis] = c;
+        }
+    }
+    desc
+}
+
+fn first_difference(a: &ItemBuffer, b: &ItemBuffer) -> Option<usize> {
+    (0..a.patch.len())
+        .find(|&k| a.patch[k] != b.patch[k] || a.dist[k].to_bits() != b.dist[k].to_bits())
+}
+
+/// The first patch of `patches` whose facet-scan buffer differs from the grid's.
+fn compare(scene: &Scene, hemi: &Hemisphere, patches: &[u32]) -> Option<(u32, usize)> {
+    let resolution = GridResolution::Auto {
+        density: 4.0,
+        max_per_axis: 64,
+    };
+    let grid = VoxelGrid::build(scene, &VoxelGridConfig { resolution }).unwrap();
+    let facets = FacetScan::new(scene);
+    let (mut gs, mut fs) = (grid.new_scratch(), facets.scratch());
+    let (mut a, mut b) = (ItemBuffer::default(), ItemBuffer::default());
+    let r = patches.iter().find_map(|&p| {
+        hemi.cast(scene, &grid, p, &mut gs, &mut a);
+        facets.item_buffer(scene, hemi, p, &mut fs, &mut b);
+        first_difference(&a, &b).map(|k| (p, k))
+    });
+    r
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(60))]
+
+    #[test]
+    fn the_facet_scan_matches_the_grid_on_random_meshes(
+        desc in random_scene(8),
+        sides in two_sided_flags(),
+        cuts in proptest::collection::vec(1usize..5, 1..8),
+        n_theta in 4u32..50,
+        n_phi in 8u32..200,
+        shift in prop_oneof![Just(0.0), 0.0f64..1.0],
+        picks in proptest::collection::vec(any::<prop::sample::Index>(), 1..8),
+        offset in prop_oneof![Just(0.0f64), Just(37.0)],
+        flat in any::<bool>(),
+    ) {
+        let desc = if flat { axis_aligned(desc) } else { desc };
+        let mut desc = fans(with_two_sided(desc, &sides), &cuts);
+        for p in &mut desc.polygons {
+            for v in &mut p.vertices {
+                *v += glam::DVec3::new(offset, -0.5 * offset, 0.25 * offset);
+            }
+        }
+        let scene = Scene::new(desc);
+        prop_assume!(scene.is_ok());
+        let scene = scene.unwrap();
+        let hemi = Hemisphere::new(HemisphereConfig { phi_shift: shift, ..HemisphereConfig::exact(n_theta, n_phi) }).unwrap();
+        let patches: Vec<u32> = picks.iter().map(|i| i.index(scene.patches().len()) as u32).collect();
+        prop_assert_eq!(compare(&scene, &hemi, &patches), None);
+    }
+}
+
+/// The loft cut into 28,800 triangles: the facet scan locates (rather than scans one by
+/// one) nearly every facet, and gives the grid's cells.
+#[test]
+fn the_facet_scan_matches_the_grid_on_the_tessellated_loft() {
+    let scene = Scene::new(rad_geometry::scenes::loft_triangles()).unwrap();
+    let hemi = Hemisphere::new(HemisphereConfig::exact(45, 180)).unwrap();
+    let n = scene.patches().len();
+    let patches: Vec<u32> = (0..12).map(|k| ((k * n / 12 + 37) % n) as u32).collect();
+    assert_eq!(compare(&scene, &hemi, &patches), None);
+    let facets = FacetScan::new(&scene);
+    let mut fs = facets.scratch();
+    let mut buf = ItemBuffer::default();
+    for &p in &patches {
+        facets.item_buffer(&scene, &hemi, p, &mut fs, &mut buf);
+    }
+    let st = fs.stats;
+    assert!(st.located > 20 * st.one_by_one, "{st:?}");
+}
