@@ -370,7 +370,7 @@ struct RowFlags {
     /// cell's triangle found in its piece's grid) or grid (each cell's ray through the
     /// voxel grid, the report's way). All give the same rows, to the bit. Default: the
     /// fastest for the scene (scan below 1024 polygons; from there facets where the flat
-    /// pieces hold 256 polygons or more on average, else hierarchy).
+    /// pieces hold 128 polygons or more on average, else hierarchy).
     #[arg(long)]
     caster: Option<CasterKind>,
 }

@@ -176,7 +176,23 @@ impl Shape {
         t_max: f32,
     ) -> Option<crate::PolygonHit> {
         let (t, u, v, denom) = h.along(d, t_max)?;
-        let inside = match self {
+        self.accepts(poly, h, denom, u, v)
+            .then_some((t, u, v, denom < 0.0))
+    }
+
+    /// [`Polygon::accepts`] (not from behind) of the polygon of this shape at (u, v),
+    /// met with `denom` (its terms `h`), reading the polygon only where the shape alone
+    /// does not decide: the same answer, to the bit.
+    #[inline]
+    pub fn accepts<'p>(
+        &self,
+        poly: impl FnOnce() -> &'p Polygon,
+        h: &OriginTerms,
+        denom: f32,
+        u: f32,
+        v: f32,
+    ) -> bool {
+        match self {
             // `contains_uv` of a parallelogram is its (u, v) bounds, the very f32 sums.
             Shape::Parallelogram if denom < 0.0 => h.in_bounds(u, v),
             Shape::Triangle(tri) => {
@@ -186,8 +202,7 @@ impl Shape {
                     .all(|e| e[0] * u + e[1] * v + e[2] >= limit)
             }
             _ => poly().accepts(denom, false, u, v),
-        };
-        inside.then_some((t, u, v, denom < 0.0))
+        }
     }
 
     pub fn of(poly: &Polygon) -> Shape {

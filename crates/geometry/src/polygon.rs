@@ -250,6 +250,12 @@ impl Polygon {
         self.plane_d - self.normal.dot(o)
     }
 
+    /// Its one patch, for a polygon of one ([`Polygon::patches_at`] needs no lookup);
+    /// else None.
+    pub fn one_patch(&self) -> Option<PatchId> {
+        (self.nu == 1 && self.nv == 1).then_some(self.first_patch)
+    }
+
     /// [`Polygon::patch_at`] of many parameters at once: `out[k] = patch_at(u[k], v[k])`,
     /// the same arithmetic in a branch-free loop that vectorises (compiled for AVX2 and
     /// AVX-512 too, chosen at run time, with gathers for the patch texture).
@@ -257,12 +263,6 @@ impl Polygon {
     /// # Panics
     /// If the three slices differ in length.
     #[inline]
-    /// Its one patch, for a polygon of one ([`Polygon::patches_at`] needs no lookup);
-    /// else None.
-    pub fn one_patch(&self) -> Option<PatchId> {
-        (self.nu == 1 && self.nv == 1).then_some(self.first_patch)
-    }
-
     pub fn patches_at(&self, u: &[f32], v: &[f32], out: &mut [PatchId]) {
         assert!(
             u.len() == out.len() && v.len() == out.len(),

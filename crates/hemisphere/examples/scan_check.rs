@@ -109,11 +109,11 @@ fn check(name: &str, desc: rad_geometry::SceneDesc, hemi: &Hemisphere) {
             profile(name, &scene, &hemi, &patches, &fscan, |s| {
                 let f = s.stats;
                 format!(
-                    "{:.0} polygons one by one; {:.0} cells located, {:.0} not outside, {:.0} plain",
+                    "{:.0} polygons one by one; {:.0} cells located, {:.0} not outside, {:.0} of them given the facet plane's t",
                     f.one_by_one_polygons as f64 / f.hemispheres as f64,
                     f.cells as f64 / f.hemispheres as f64,
                     f.cells_near as f64 / f.hemispheres as f64,
-                    f.plain as f64 / f.hemispheres as f64,
+                    f.direct as f64 / f.hemispheres as f64,
                 )
             });
             return;

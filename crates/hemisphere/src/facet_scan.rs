@@ -10,7 +10,9 @@
 //! plane holding every point any of its polygons' tests accepts, and each cell of it
 //! whose ray may still meet the facet no farther than the cell's nearest hit so far
 //! finds, in the facet's grid, the polygon its ray's point lies in. That polygon's own
-//! f32 test (the grid's, [`crate::NearestHits::test_cell`]) then decides, with ties in t
+//! f32 test (the grid's, [`crate::NearestHits::test_cell`]; for a point well inside it,
+//! its t alone, which is the facet plane's where its f32 plane is the facet's to the
+//! bit) then decides, with ties in t
 //! going to the lower polygon id whatever the order: so the item buffers are the grid's,
 //! bit for bit. Where the point lies within the facet's margin of an edge, every polygon
 //! that may hold it is tested.
@@ -116,6 +118,9 @@ pub struct FacetScanStats {
     /// Hemispheres scanned plainly (some ring's rays do not all leave the plane
     /// forwards).
     pub plain: u64,
+    /// Cells given the facet plane's t as located ([`FacetScan`]'s shortcut for a
+    /// member whose f32 plane is the facet's).
+    pub direct: u64,
 }
 
 /// Per-thread working memory of [`FacetScan`].
@@ -609,7 +614,9 @@ impl Piece {
                 let dir = hits.direction(c);
                 stats.cells_near += 1;
                 match l {
-                    Located::Clear(p, t) => tests.clear(hits, p, c, t, dir),
+                    Located::Clear(p, t) => {
+                        stats.direct += u64::from(tests.clear(hits, p, c, t, dir));
+                    }
                     _ => {
                         // (Tested below, their terms fetched meanwhile.)
                         let t = num / n32.dot(dir);
@@ -688,15 +695,18 @@ impl Tests<'_> {
     /// `t` along `dir`: where `p`'s plane is the facet's to the bit, `t` is its own
     /// test's, and where that point lies well in front of the patch's plane, `p` is
     /// not wholly behind it; so `t` is offered as it stands.
+    /// True where `t` was offered as it stands.
     #[inline]
-    fn clear(&mut self, hits: &mut NearestHits, p: PolygonId, c: usize, t: f32, dir: Vec3) {
+    fn clear(&mut self, hits: &mut NearestHits, p: PolygonId, c: usize, t: f32, dir: Vec3) -> bool {
         let k = p as usize;
         let same = self.all.same_plane[k / 64] & (1 << (k % 64)) != 0;
         let front = self.surely_front(t, dir);
-        if !same || p == self.at.own || !self.all.front_only.is_empty() || !front {
-            return self.test(hits, p, c, true, front);
+        if !same || p == self.at.own || self.all.front_only.get(k) == Some(&true) || !front {
+            self.test(hits, p, c, true, front);
+            return false;
         }
         hits.offer(c, p, t, 0.0, 0.0);
+        true
     }
 
     /// Whether a member within the margin of the point at the facet plane's `t` along

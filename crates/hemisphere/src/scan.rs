@@ -354,6 +354,23 @@ impl NearestHits {
     /// cells tested one by one).
     #[inline]
     pub fn test_cell(&mut self, poly: &Polygon, id: PolygonId, h: &OriginTerms, c: usize) {
+        let (denom, t, u, v, kept) = self.cell_terms(id, h, c);
+        if kept && poly.accepts(denom, false, u, v) {
+            (self.best_t[c], self.best_p[c]) = (t, id);
+            (self.best_u[c], self.best_v[c]) = (u, v);
+        }
+    }
+
+    /// What [`NearestHits::test_cell`] computes before the inside test: cell `c`'s ray's
+    /// (denom, t, u, v) against the polygon `id` of terms `h`, and whether the hit would
+    /// be kept were (u, v) inside (in front, nearer by the tie rule, within the bounds).
+    #[inline(always)]
+    fn cell_terms(
+        &mut self,
+        id: PolygonId,
+        h: &OriginTerms,
+        c: usize,
+    ) -> (f32, f32, f32, f32, bool) {
         self.tests += 1;
         let (x, y, z) = (self.dx[c], self.dy[c], self.dz[c]);
         let denom = h.denom(x, y, z);
@@ -361,10 +378,7 @@ impl NearestHits {
         let (u, v) = h.uv(t, x, y, z);
         let (bt, bp) = (self.best_t[c], self.best_p[c]);
         let nearer = (t < bt) | ((t == bt) & (id < bp) & (t < f32::INFINITY));
-        if (t > 0.0) & nearer & h.in_bounds(u, v) && poly.accepts(denom, false, u, v) {
-            (self.best_t[c], self.best_p[c]) = (t, id);
-            (self.best_u[c], self.best_v[c]) = (u, v);
-        }
+        (denom, t, u, v, (t > 0.0) & nearer & h.in_bounds(u, v))
     }
 
     /// [`NearestHits::test_cell`] with the inside test decided by the polygon's
@@ -379,27 +393,9 @@ impl NearestHits {
         h: &OriginTerms,
         c: usize,
     ) {
-        self.tests += 1;
-        let (x, y, z) = (self.dx[c], self.dy[c], self.dz[c]);
-        let denom = h.denom(x, y, z);
-        let t = h.num / denom;
-        let (u, v) = h.uv(t, x, y, z);
-        let (bt, bp) = (self.best_t[c], self.best_p[c]);
-        let nearer = (t < bt) | ((t == bt) & (id < bp) & (t < f32::INFINITY));
-        if !((t > 0.0) & nearer & h.in_bounds(u, v)) {
-            return;
-        }
-        let inside = match shape {
-            Shape::Parallelogram if denom < 0.0 => true,
-            Shape::Triangle(tri) => {
-                let limit = if denom < 0.0 { -tri.eps } else { tri.eps };
-                tri.edges
-                    .iter()
-                    .all(|e| e[0] * u + e[1] * v + e[2] >= limit)
-            }
-            _ => poly().accepts(denom, false, u, v),
-        };
-        if inside {
+        let (denom, t, u, v, kept) = self.cell_terms(id, h, c);
+        // (Within the bounds, a parallelogram's in_bounds again is true: the same.)
+        if kept && shape.accepts(poly, h, denom, u, v) {
             (self.best_t[c], self.best_p[c]) = (t, id);
             (self.best_u[c], self.best_v[c]) = (u, v);
         }
@@ -455,7 +451,8 @@ impl NearestHits {
         assert!(patch.len() == n && dist.len() == n, "one entry per cell");
         dist.copy_from_slice(&self.best_t);
         let (polygons, seen) = (scene.polygons(), scene.seen_terms());
-        // (The polygons a few runs ahead are fetched early: a mesh's are scattered.)
+        // (The polygon seen 16 cells past a run's start is fetched early: a mesh's are
+        // scattered.)
         const AHEAD: usize = 16;
         let mut k = 0;
         while k < n {
