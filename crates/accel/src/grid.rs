@@ -120,8 +120,14 @@ impl<'s> VoxelGrid<'s> {
     pub fn build(scene: &'s Scene, config: &VoxelGridConfig) -> Result<Self, Error> {
         let (lo0, hi0) = scene.bounds();
         let diag = (hi0 - lo0).length().max(1e-6);
-        // Pad so that no polygon lies on the grid's outer faces.
-        let pad = Vec3::splat(1e-4 * diag);
+        // Pad so that no polygon lies on the grid's outer faces, and every hit a
+        // polygon's test accepts (up to its hull reach off it) lies inside.
+        let far = scene
+            .polygons()
+            .iter()
+            .map(|p| p.hull_reach() as f32)
+            .fold(0.0, f32::max);
+        let pad = Vec3::splat(1e-4 * diag + 2.0 * far);
         let (lo, hi) = (lo0 - pad, hi0 + pad);
         let ext = hi - lo;
         let dims = match config.resolution {
@@ -161,8 +167,9 @@ impl<'s> VoxelGrid<'s> {
         let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n_voxels];
         let eps = 1e-5 * diag;
         for (idx, poly) in scene.polygons().iter().enumerate() {
-            // A polygon accepts hits up to its reach past its edges: pad by that too.
-            let eps = eps.max(2.0 * poly.reach());
+            // A polygon accepts hits up to its reach past its edges, farther at an acute
+            // corner: pad by that too.
+            let eps = eps.max(2.0 * poly.reach()).max(poly.hull_reach() as f32);
             let (plo, phi) = poly_bounds(poly);
             let v0 = (((plo - lo - eps) / cell).floor().max(Vec3::ZERO))
                 .as_uvec3()

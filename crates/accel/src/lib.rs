@@ -8,7 +8,7 @@ mod wide;
 
 pub use brute::BruteForce;
 pub use grid::{GridResolution, GridScratch, VoxelGrid, VoxelGridConfig, MAX_VOXELS};
-pub use wide::WideBvh;
+pub use wide::{WideBvh, WideTree};
 
 /// Errors from building an accelerator.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -7,8 +7,10 @@
 //! lower-id tie rule deciding every candidate, so the hits are brute force's, to the
 //! bit.
 //!
-//! Why the crate's box tests cannot lose a hit: each polygon's box is grown by 1e-4 of
-//! the scene's scale, far past the f32 rounding of any accepted hit (a few 1e-7 of it);
+//! Why the crate's box tests cannot lose a hit: each polygon's box holds every point its
+//! test accepts (twice its hull reach past its vertices: far along a sliver) and is
+//! grown by 1e-4 of the scene's scale, far past the f32 rounding of any accepted hit (a
+//! few 1e-7 of it);
 //! so a ray with an accepted hit at t enters that box before t, and the traversal, which
 //! only drops boxes it enters after the nearest t so far, visits every polygon that
 //! could win or tie. Rays from origins far outside the scene (over ten times its scale)
@@ -16,13 +18,63 @@
 
 use glam_obvhs::Vec3A;
 use obvhs::{aabb::Aabb, cwbvh::builder::build_cwbvh, cwbvh::CwBvh, ray::RayHit, Boundable};
-use rad_core::{Hit, PolygonId, Ray, RayCast};
+use rad_core::{BoxTree, Hit, PolygonId, Ray, RayCast};
 use rad_geometry::{PolygonTerms, Scene, Shape};
+
+/// `obvhs`'s eight-wide BVH over boxes, for casters whose leaves are not one polygon
+/// each (a facet of many, say): the leaves are the boxes' indices in the tree's order.
+pub struct WideTree {
+    bvh: CwBvh,
+}
+
+impl WideTree {
+    /// The tree over boxes (lower, upper corner), built as [`WideBvh`]'s is.
+    pub fn new(boxes: &[(glam::Vec3, glam::Vec3)]) -> WideTree {
+        let boxes: Vec<Boxed> = boxes
+            .iter()
+            .map(|&(lo, hi)| {
+                Boxed(Aabb {
+                    min: a(lo),
+                    max: a(hi),
+                })
+            })
+            .collect();
+        WideTree {
+            bvh: build_cwbvh(
+                &boxes,
+                obvhs::BvhBuildParams::slow_build(),
+                &mut std::time::Duration::default(),
+            ),
+        }
+    }
+}
+
+impl BoxTree for WideTree {
+    #[inline]
+    fn index(&self, k: usize) -> u32 {
+        self.bvh.primitive_indices[k]
+    }
+
+    #[inline]
+    fn closest(&self, origin: glam::Vec3, dir: glam::Vec3, leaf: impl FnMut(usize) -> f32) {
+        let mut leaf = leaf;
+        let ray = obvhs::ray::Ray::new(a(origin), a(dir), 0.0, f32::INFINITY);
+        let mut hit = RayHit::none();
+        self.bvh.ray_traverse(ray, &mut hit, |_, k| leaf(k));
+    }
+
+    #[inline]
+    fn every(&self, origin: glam::Vec3, dir: glam::Vec3, leaf: impl FnMut(usize)) {
+        let mut leaf = leaf;
+        let ray = obvhs::ray::Ray::new(a(origin), a(dir), 0.0, f32::INFINITY);
+        self.bvh.ray_traverse_anyhit(ray, |_, k| leaf(k));
+    }
+}
 
 /// A wide BVH over one scene's polygons, as a [`RayCast`].
 pub struct WideBvh<'s> {
     scene: &'s Scene,
-    bvh: CwBvh,
+    tree: WideTree,
     /// Each polygon's hit-test terms and shape, in the tree's order (what a leaf reads:
     /// [`Shape::hit_from`] gives [`rad_geometry::Polygon::intersect`]'s answer).
     terms: Vec<(PolygonTerms, Shape)>,
@@ -44,37 +96,14 @@ fn a(v: glam::Vec3) -> Vec3A {
 
 impl<'s> WideBvh<'s> {
     pub fn new(scene: &'s Scene) -> WideBvh<'s> {
-        let bound = |vs: &mut dyn Iterator<Item = glam::Vec3>| {
-            vs.fold(
-                (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
-                |(lo, hi), v| (lo.min(v), hi.max(v)),
-            )
-        };
         let polygons = scene.polygons();
-        let (lo, hi) = bound(&mut polygons.iter().flat_map(|p| p.vertices().iter().copied()));
-        let scale = if polygons.is_empty() {
-            0.0
-        } else {
-            lo.abs().max(hi.abs()).max_element() + (hi - lo).length()
-        };
+        let scale = scene.scale();
         let grow = 1e-4 * scale;
-        let boxes: Vec<Boxed> = polygons
-            .iter()
-            .map(|p| {
-                let (a0, b0) = bound(&mut p.vertices().iter().copied());
-                let reach = p.reach() * 4.0;
-                Boxed(Aabb {
-                    min: a(a0 - grow - reach),
-                    max: a(b0 + grow + reach),
-                })
-            })
-            .collect();
-        let bvh = build_cwbvh(
-            &boxes,
-            obvhs::BvhBuildParams::slow_build(),
-            &mut std::time::Duration::default(),
-        );
-        let terms = bvh
+        let boxes: Vec<(glam::Vec3, glam::Vec3)> =
+            polygons.iter().map(|p| p.tree_box(grow)).collect();
+        let tree = WideTree::new(&boxes);
+        let terms = tree
+            .bvh
             .primitive_indices
             .iter()
             .map(|&id| {
@@ -84,7 +113,7 @@ impl<'s> WideBvh<'s> {
             .collect();
         WideBvh {
             scene,
-            bvh,
+            tree,
             terms,
             scale,
         }
@@ -97,7 +126,7 @@ impl<'s> WideBvh<'s> {
     }
 
     fn id(&self, k: usize) -> PolygonId {
-        self.bvh.primitive_indices[k]
+        self.tree.index(k)
     }
 
     /// The hit of `ray` on the polygon at tree position `k` (`Polygon::intersect`).
@@ -120,10 +149,8 @@ impl RayCast for WideBvh<'_> {
         if !self.near(ray) {
             return crate::BruteForce::new(self.scene).closest_hit(ray, &mut ());
         }
-        let traversal = obvhs::ray::Ray::new(a(ray.origin), a(ray.dir), 0.0, f32::INFINITY);
         let mut best: Option<Hit> = None;
-        let mut hit = RayHit::none();
-        self.bvh.ray_traverse(traversal, &mut hit, |_, k| {
+        self.tree.closest(ray.origin, ray.dir, |k| {
             let id = self.id(k);
             if id == ray.skip {
                 return f32::INFINITY;
@@ -153,8 +180,7 @@ impl RayCast for WideBvh<'_> {
             return self.scene.all_hits(ray, out);
         }
         out.clear();
-        let traversal = obvhs::ray::Ray::new(a(ray.origin), a(ray.dir), 0.0, f32::INFINITY);
-        self.bvh.ray_traverse_anyhit(traversal, |_, k| {
+        self.tree.every(ray.origin, ray.dir, |k| {
             let id = self.id(k);
             if id == ray.skip {
                 return;

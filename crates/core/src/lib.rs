@@ -10,7 +10,7 @@ mod rgb;
 pub use frame::Frame;
 pub use hint::prefetch;
 pub use ids::{PatchId, PolygonId, BACK, ESCAPED, HOLE, NO_POLYGON};
-pub use ray::{Hit, Ray, RayCast};
+pub use ray::{BoxTree, Hit, Ray, RayCast};
 pub use rgb::Rgb;
 
 pub use glam::Vec3;

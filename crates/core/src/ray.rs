@@ -82,3 +82,18 @@ pub trait RayCast: Sync {
         }
     }
 }
+
+/// A bounding volume hierarchy over boxes, traversed nearest first: what an
+/// accelerator crate lends a caster whose leaves are its own (a facet of many polygons,
+/// say), so that the caster need not know the tree.
+pub trait BoxTree {
+    /// The box at leaf position `k` (what a leaf call is given): its index in the
+    /// boxes the tree was built from.
+    fn index(&self, k: usize) -> u32;
+    /// Each leaf position `k` whose box the ray from `origin` along `dir` enters,
+    /// nearest first, passed to `leaf`, which returns the distance of a hit found there
+    /// (or infinity): boxes entered beyond the nearest such distance are skipped.
+    fn closest(&self, origin: Vec3, dir: Vec3, leaf: impl FnMut(usize) -> f32);
+    /// Every leaf position whose box the ray enters, passed to `leaf`.
+    fn every(&self, origin: Vec3, dir: Vec3, leaf: impl FnMut(usize));
+}

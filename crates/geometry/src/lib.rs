@@ -18,7 +18,7 @@ pub use error::{Error, PolygonProblem};
 pub use facets::{Facets, LocateScratch, Located, FACET_TILT};
 pub use hit_test::{OriginTerms, PolygonTerms, Shape, Triangle};
 pub use overlap::{NORMAL_TOLERANCE, OVERLAP_FRACTION, PLANE_TOLERANCE};
-pub use polygon::vertices_problem;
+pub use polygon::{reach_past_corners, vertices_problem};
 pub use polygon::{
     Patch, Polygon, PolygonHit, MAX_CELLS_PER_POLYGON, MAX_COORDINATE, MIN_POLYGON_SIZE,
     MIN_POLYGON_SIZE_RELATIVE, PLANARITY_TOLERANCE,

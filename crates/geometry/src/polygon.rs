@@ -377,6 +377,29 @@ impl Polygon {
         self.eps + self.off_plane
     }
 
+    /// How far from the convex hull of its vertices a front hit this polygon's test
+    /// accepts may lie: its [`Polygon::reach`] grows, at an acute corner, to twice that
+    /// over the sine of half the corner's angle (a sliver's tolerance reaches far along
+    /// it). What an accelerator pads a polygon's box by.
+    pub fn hull_reach(&self) -> f64 {
+        let vs: Vec<glam::DVec3> = self.vertices.iter().map(|v| v.as_dvec3()).collect();
+        reach_past_corners(self.reach(), &vs)
+    }
+
+    /// Its box for a ray tree: its vertices' grown by `grow` and four times its test's
+    /// reach, or farther at an acute corner ([`Polygon::hull_reach`]): every point its
+    /// hit test accepts lies well inside.
+    pub fn tree_box(&self, grow: f32) -> (Vec3, Vec3) {
+        let (lo, hi) = self
+            .vertices
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| {
+                (lo.min(*v), hi.max(*v))
+            });
+        let reach = (self.reach() * 4.0).max(2.0 * self.hull_reach() as f32);
+        (lo - grow - reach, hi + grow + reach)
+    }
+
     /// True when every vertex lies behind the plane through `o` with normal `n` by more
     /// than [`Polygon::reach`]: rays leaving that plane forwards from `o` cannot hit it.
     /// The voxel grid culls such polygons for a hemisphere's rays, and the polygon scan
@@ -902,4 +925,19 @@ fn fill_empty_cells(cell_patch: &mut [PatchId], nu: u32, nv: u32) {
 /// the patch grid's), or `None` when they make a valid one.
 pub fn vertices_problem(vertices: &[Vec3]) -> Option<PolygonProblem> {
     validated(vertices, 1, 1).err()
+}
+
+/// How far past its edges (world units) the inside test of a polygon of reach `reach`
+/// (its [`Polygon::reach`]) and corners `corners` (in order) reaches: twice its reach
+/// over the sine of its sharpest half-angle.
+pub fn reach_past_corners(reach: f32, corners: &[glam::DVec3]) -> f64 {
+    let n = corners.len();
+    let mut min_sin_half = 1.0f64;
+    for k in 0..n {
+        let (a, b, c) = (corners[(k + n - 1) % n], corners[k], corners[(k + 1) % n]);
+        let (e0, e1) = ((a - b).normalize_or_zero(), (c - b).normalize_or_zero());
+        let angle = e0.dot(e1).clamp(-1.0, 1.0).acos();
+        min_sin_half = min_sin_half.min((0.5 * angle).sin());
+    }
+    2.0 * reach as f64 / min_sin_half.max(1e-6)
 }

@@ -384,6 +384,23 @@ impl Scene {
     pub fn bounds(&self) -> (Vec3, Vec3) {
         self.bounds
     }
+    /// Its largest coordinate plus its diagonal (0 for no polygons): ray trees send
+    /// rays from origins beyond ten times this to brute force, and grow boxes by 1e-4
+    /// of it.
+    pub fn scale(&self) -> f32 {
+        let vs = self
+            .polygons
+            .iter()
+            .flat_map(|p| p.vertices().iter().copied());
+        let (lo, hi) = vs.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+        if self.polygons.is_empty() {
+            0.0
+        } else {
+            lo.abs().max(hi.abs()).max_element() + (hi - lo).length()
+        }
+    }
     /// Material of a patch.
     pub fn patch_material(&self, patch: PatchId) -> &Material {
         let poly = self.patches[patch as usize].polygon;

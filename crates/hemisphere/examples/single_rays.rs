@@ -1,7 +1,8 @@
 //! Single rays (improved estimation's real rays, rendering) through the hierarchy's own
 //! binary tree and through `rad_accel::WideBvh` (`obvhs`'s eight-wide compressed BVH,
-//! PLOC build, with our hit test and tie rule deciding), on the same rays: build time,
-//! rays a second on one thread, and whether the closest hits agree to the bit.
+//! PLOC build, with our hit test and tie rule deciding), and through `FacetRays` (the
+//! same BVH over facets), on the same rays: build time, rays a second on one thread,
+//! and whether the closest hits agree to the bit.
 //! `cargo run --release -p rad-hemisphere --example single_rays`.
 
 use glam::Vec3;
@@ -9,7 +10,7 @@ use rad_accel::WideBvh;
 use rad_core::{Hit, Ray, RayCast};
 use rad_geometry::scenes::{blob_room, loft, loft_fine_triangles, loft_triangles};
 use rad_geometry::Scene;
-use rad_hemisphere::Hierarchy;
+use rad_hemisphere::{FacetRays, Hierarchy};
 use std::time::Instant;
 
 /// 200,000 rays from patch centres into their hemispheres (a fixed pseudo-random set).
@@ -70,9 +71,12 @@ fn main() {
         let _ = Hierarchy::new(&scene);
         let own_build = own_build + t.elapsed().as_secs_f64() * 1e3;
         let (wide_build, wide, wide_rate) = run(|| WideBvh::new(&scene), &rays);
+        let (facet_build, facets, facet_rate) =
+            run(|| FacetRays::new(&scene, rad_accel::WideTree::new), &rays);
         let differ = own.iter().zip(&wide).filter(|(a, b)| a != b).count();
+        let differ_facets = own.iter().zip(&facets).filter(|(a, b)| a != b).count();
         println!(
-            "{name}: {} polygons; build: hierarchy {own_build:.1} ms, wide BVH {wide_build:.1} ms; rays: hierarchy {own_rate:.2} Mrays/s, wide BVH {wide_rate:.2} Mrays/s; {differ} of {} closest hits differ",
+            "{name}: {} polygons; build: hierarchy {own_build:.1} ms, wide BVH {wide_build:.1} ms, facets {facet_build:.1} ms; rays: hierarchy {own_rate:.2} Mrays/s, wide BVH {wide_rate:.2} Mrays/s, facets {facet_rate:.2} Mrays/s; {differ} (wide), {differ_facets} (facets) of {} closest hits differ",
             scene.polygons().len(),
             rays.len()
         );

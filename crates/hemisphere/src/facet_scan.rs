@@ -30,7 +30,8 @@
 //! are scanned one by one, as [`Hemisphere::scan`] does them. Facets of one polygon are
 //! scanned as the scan does them, nearest first too.
 //!
-//! Single rays (improved estimation's, boundary lists') go through a [`Hierarchy`].
+//! Single rays (improved estimation's, boundary lists') go through a [`Hierarchy`];
+//! [`FacetRays`] casts single rays at the cost of the facets too (rendering's).
 
 use crate::scan::{
     cannot_hit_near_plane, edge_reach, padded_corners, region_of, Region, ScanOrigin,
@@ -42,6 +43,9 @@ use crate::{
 use glam::DVec3;
 use rad_core::{prefetch, Hit, PolygonId, Ray, Vec3};
 use rad_geometry::{Facets, LocateScratch, Located, Polygon, PolygonTerms, Scene, Shape};
+
+mod rays;
+pub use rays::{FacetRays, FacetRaysScratch};
 
 /// The facet scan (see the module's text), made for one scene.
 #[derive(Clone, Debug)]
@@ -153,6 +157,22 @@ impl FacetScanScratch {
 /// Half the f32 epsilon.
 const ULP: f64 = f32::EPSILON as f64 * 0.5;
 
+/// By facet: its piece's index (facets of several polygons) or `NONE`; and the pieces.
+fn pieces_of(facets: &Facets, polygons: &[Polygon]) -> (Vec<u32>, Vec<Piece>) {
+    let mut pieces = Vec::new();
+    let piece_of = (0..facets.len() as u32)
+        .map(|f| {
+            if facets.polygons(f).len() == 1 {
+                NONE
+            } else {
+                pieces.push(Piece::of(facets, f, polygons));
+                pieces.len() as u32 - 1
+            }
+        })
+        .collect();
+    (piece_of, pieces)
+}
+
 impl FacetScan {
     /// The facet scan of `scene` (its facets, [`Scene::facets`], and a [`Hierarchy`]
     /// for single rays).
@@ -161,7 +181,7 @@ impl FacetScan {
         let polygons = scene.polygons();
         let mut out = FacetScan {
             spheres: Vec::with_capacity(facets.len()),
-            piece_of: Vec::with_capacity(facets.len()),
+            piece_of: Vec::new(),
             pieces: Vec::new(),
             facets: Facets::default(),
             members: polygons
@@ -206,13 +226,8 @@ impl FacetScan {
                     out.same_plane[p as usize / 64] |= 1 << (p % 64);
                 }
             }
-            if members.len() == 1 {
-                out.piece_of.push(NONE);
-            } else {
-                out.piece_of.push(out.pieces.len() as u32);
-                out.pieces.push(Piece::of(&facets, f, polygons));
-            }
         }
+        (out.piece_of, out.pieces) = pieces_of(&facets, polygons);
         out.facets = facets;
         out
     }

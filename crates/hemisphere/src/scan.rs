@@ -1076,15 +1076,7 @@ pub(crate) fn cannot_hit_near_plane(
 /// How far past its edges (world units) the inside tests of `poly`, whose corners in
 /// order are `corners`, reach: twice its reach over the sine of its sharpest half-angle.
 pub(crate) fn edge_reach(poly: &Polygon, corners: &[DVec3]) -> f64 {
-    let n = corners.len();
-    let mut min_sin_half = 1.0f64;
-    for k in 0..n {
-        let (a, b, c) = (corners[(k + n - 1) % n], corners[k], corners[(k + 1) % n]);
-        let (e0, e1) = ((a - b).normalize_or_zero(), (c - b).normalize_or_zero());
-        let angle = e0.dot(e1).clamp(-1.0, 1.0).acos();
-        min_sin_half = min_sin_half.min((0.5 * angle).sin());
-    }
-    2.0 * poly.reach() as f64 / min_sin_half.max(1e-6)
+    rad_geometry::reach_past_corners(poly.reach(), corners)
 }
 
 /// Where the great-circle arc from unit direction `a` to `b` comes nearest the pole

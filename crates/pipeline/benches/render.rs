@@ -34,6 +34,7 @@ fn bench(c: &mut Criterion) {
         let tree = Hierarchy::new(&scene);
         let rays = tree.rays(&scene);
         let wide = rad_accel::WideBvh::new(&scene);
+        let facets = rad_hemisphere::FacetRays::new(&scene, rad_accel::WideTree::new);
         group.bench_function(
             BenchmarkId::from_parameter(format!("{name}/640x480/grid")),
             |bench| {
@@ -60,6 +61,16 @@ fn bench(c: &mut Criterion) {
                 bench.iter(|| {
                     pool.install(|| {
                         black_box(rad_render::render(&scene, &wide, &view, &b, &config))
+                    })
+                })
+            },
+        );
+        group.bench_function(
+            BenchmarkId::from_parameter(format!("{name}/640x480/facets")),
+            |bench| {
+                bench.iter(|| {
+                    pool.install(|| {
+                        black_box(rad_render::render(&scene, &facets, &view, &b, &config))
                     })
                 })
             },

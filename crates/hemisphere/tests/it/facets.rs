@@ -4,11 +4,11 @@
 //! x, y or z (whose triangles share their facet's plane to the bit).
 
 use proptest::prelude::*;
-use rad_accel::{GridResolution, VoxelGrid, VoxelGridConfig};
-use rad_core::RayCast;
+use rad_accel::{BruteForce, GridResolution, VoxelGrid, VoxelGridConfig};
+use rad_core::{Ray, RayCast, NO_POLYGON};
 use rad_geometry::{PatchGrid, PolygonDesc, Scene, SceneDesc};
-use rad_hemisphere::{Caster, FacetScan, Hemisphere, HemisphereConfig, ItemBuffer};
-use rad_testkit::{random_scene, two_sided_flags, with_two_sided};
+use rad_hemisphere::{Caster, FacetRays, FacetScan, Hemisphere, HemisphereConfig, ItemBuffer};
+use rad_testkit::{random_scene, ray, two_sided_flags, unit_vector, with_two_sided};
 
 /// Every polygon of `desc` cut into a fan of one-patch triangles from its centroid, each
 /// edge split in `cuts` pieces (the split points made once an edge, so that neighbours
@@ -102,6 +102,102 @@ proptest! {
         let hemi = Hemisphere::new(HemisphereConfig { phi_shift: shift, ..HemisphereConfig::exact(n_theta, n_phi) }).unwrap();
         let patches: Vec<u32> = picks.iter().map(|i| i.index(scene.patches().len()) as u32).collect();
         prop_assert_eq!(compare(&scene, &hemi, &patches), None);
+    }
+
+    /// Single rays through the facets give brute force's hits to the bit (polygon, t,
+    /// u, v, side; every hit along the ray too): from anywhere, from patch centres (in
+    /// their facet's plane) with and without their own polygon skipped, along and
+    /// nearly along a facet's plane, and with a bound on t.
+    #[test]
+    fn facet_rays_match_brute_force_on_random_meshes(
+        desc in random_scene(8),
+        sides in two_sided_flags(),
+        cuts in proptest::collection::vec(1usize..5, 1..8),
+        offset in prop_oneof![Just(0.0f64), Just(37.0)],
+        flat in any::<bool>(),
+        free in proptest::collection::vec(ray(), 1..20),
+        picks in proptest::collection::vec((any::<prop::sample::Index>(), unit_vector(), -1e-4f32..1e-4), 1..30),
+    ) {
+        let desc = if flat { axis_aligned(desc) } else { desc };
+        let mut desc = fans(with_two_sided(desc, &sides), &cuts);
+        for p in &mut desc.polygons {
+            for v in &mut p.vertices {
+                *v += glam::DVec3::new(offset, -0.5 * offset, 0.25 * offset);
+            }
+        }
+        let scene = Scene::new(desc);
+        prop_assume!(scene.is_ok());
+        let scene = scene.unwrap();
+        let shift = glam::Vec3::new(offset as f32, -0.5 * offset as f32, 0.25 * offset as f32);
+        let mut rays: Vec<Ray> = free.iter().map(|&(o, d)| Ray::new(o + shift, d)).collect();
+        for (i, d, lift) in &picks {
+            let patch = &scene.patches()[i.index(scene.patches().len())];
+            let n = patch.normal;
+            // A direction in the patch's plane, nearly, and one off it.
+            let along = (*d - n * d.dot(n)).normalize_or_zero();
+            let slant = (along + n * *lift).normalize_or_zero();
+            for dir in [*d, slant] {
+                if dir.length() > 0.5 {
+                    let r = Ray::new(patch.center, dir);
+                    rays.push(r);
+                    rays.push(Ray { skip: patch.polygon, ..r });
+                    rays.push(Ray { origin: patch.center + n * 0.3, ..r });
+                }
+            }
+        }
+        let facets = FacetRays::new(&scene, rad_accel::WideTree::new);
+        let brute = BruteForce::new(&scene);
+        let (mut fs, mut bs) = (facets.new_scratch(), brute.new_scratch());
+        let (mut ha, mut hb) = (Vec::new(), Vec::new());
+        for r in &rays {
+            for t_max in [f32::INFINITY, 1.5] {
+                let r = Ray { t_max, ..*r };
+                prop_assert_eq!(facets.closest_hit(&r, &mut fs), brute.closest_hit(&r, &mut bs), "{:?}", r);
+                facets.all_hits(&r, &mut fs, &mut ha);
+                brute.all_hits(&r, &mut bs, &mut hb);
+                prop_assert_eq!(&ha, &hb, "{:?}", r);
+            }
+        }
+        let _ = NO_POLYGON;
+    }
+}
+
+/// On the loft cut into 115,200 triangles, single rays through its 180 facets give
+/// brute force's hits (rays from the camera and from patch centres).
+#[test]
+fn facet_rays_match_brute_force_on_the_fine_loft() {
+    let scene = Scene::new(rad_geometry::scenes::loft_fine_triangles()).unwrap();
+    let facets = FacetRays::new(&scene, rad_accel::WideTree::new);
+    assert!(facets.facet_count() < 200, "{}", facets.facet_count());
+    let brute = BruteForce::new(&scene);
+    let (mut fs, mut bs) = (facets.new_scratch(), brute.new_scratch());
+    let camera = scene.camera().unwrap().position;
+    let patches = scene.patches();
+    let mut k = 0u32;
+    let mut dir = || {
+        // (Deterministic spread of directions.)
+        k += 1;
+        let (a, b) = (k as f32 * 0.618_034, k as f32 * 0.414_214);
+        let z = 2.0 * a.fract() - 1.0;
+        let r = (1.0 - z * z).sqrt();
+        let phi = std::f32::consts::TAU * b.fract();
+        glam::Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    };
+    for j in 0..400 {
+        let p = &patches[(j * 7919) % patches.len()];
+        for r in [
+            Ray::new(camera, dir()),
+            Ray {
+                skip: p.polygon,
+                ..Ray::new(p.center, dir())
+            },
+        ] {
+            assert_eq!(
+                facets.closest_hit(&r, &mut fs),
+                brute.closest_hit(&r, &mut bs),
+                "{r:?}"
+            );
+        }
     }
 }
 

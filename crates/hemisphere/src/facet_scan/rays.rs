@@ -1,0 +1,256 @@
+//! Single rays at the cost of facets: [`FacetRays`], a tree of boxes ([`BoxTree`], such
+//! as `rad_accel::WideTree`) over a scene's facets rather than its polygons, for
+//! rendering and any other [`RayCast`] use. A ray entering a facet's box meets its plane at one point, and the
+//! facet's grid gives the few members that may hold that point (within the facet's
+//! margin); their own hit tests decide, with ties in t going to the lower polygon id
+//! whatever the order, so the hits are brute force's, to the bit. The bounds are the
+//! facet scan's ([`Piece::stray`]): a ray meeting the plane at a slant has every member
+//! within the stray of its point tested; from an origin (nearly) in the facet's plane,
+//! every member near enough the origin's foot that the ray could reach it
+//! ([`Piece::near_radius_along`]); a ray along that plane, every member. A 115,200
+//! triangle mesh of 180 flat pieces costs about what those 180 pieces as polygons would.
+
+use super::{Piece, Stray, NONE};
+use glam::{DVec3, Vec3};
+use rad_core::{BoxTree, Hit, PolygonId, Ray, RayCast};
+use rad_geometry::{Facets, PolygonTerms, Scene, Shape};
+
+/// Single rays through a scene's facets (see the module's text).
+pub struct FacetRays<'s, T> {
+    scene: &'s Scene,
+    facets: Facets,
+    /// By facet: its piece in `pieces` (facets of several polygons), else `NONE`.
+    piece_of: Vec<u32>,
+    pieces: Vec<Piece>,
+    /// The tree over the facets' boxes (each its members' [`rad_geometry::Polygon::tree_box`]).
+    tree: T,
+    /// By polygon: its hit-test terms and shape.
+    terms: Vec<(PolygonTerms, Shape)>,
+    scale: f32,
+}
+
+/// Per-thread memory of [`FacetRays`]: each facet's stray from the last origin.
+#[derive(Clone, Debug, Default)]
+pub struct FacetRaysScratch {
+    origin: Option<[u32; 3]>,
+    stamp: u32,
+    /// By facet: the stamp it was made for, and its stray (None: the origin lies
+    /// (nearly) in its plane).
+    strays: Vec<(u32, Option<Stray>)>,
+}
+
+impl FacetRaysScratch {
+    /// Facet `f`'s stray from `o` (made once an origin).
+    #[inline]
+    fn stray<T>(&mut self, rays: &FacetRays<T>, f: u32, piece: &Piece, o: Vec3) -> Option<Stray> {
+        let bits = o.to_array().map(f32::to_bits);
+        if self.origin != Some(bits) || self.strays.len() != rays.piece_of.len() {
+            self.origin = Some(bits);
+            if self.strays.len() != rays.piece_of.len() || self.stamp == u32::MAX {
+                self.strays.clear();
+                self.strays.resize(rays.piece_of.len(), (0, None));
+                self.stamp = 0;
+            }
+            self.stamp += 1;
+        }
+        let slot = &mut self.strays[f as usize];
+        if slot.0 != self.stamp {
+            *slot = (self.stamp, piece.stray(o.as_dvec3()));
+        }
+        slot.1
+    }
+}
+
+impl<'s, T: BoxTree> FacetRays<'s, T> {
+    /// The facets of `scene` ([`Facets::exact`]) and a tree over their boxes, built by
+    /// `tree` (`rad_accel::WideTree::new`, say).
+    pub fn new(scene: &'s Scene, tree: impl FnOnce(&[(Vec3, Vec3)]) -> T) -> FacetRays<'s, T> {
+        let facets = Facets::exact(scene);
+        let polygons = scene.polygons();
+        let (piece_of, pieces) = super::pieces_of(&facets, polygons);
+        let scale = scene.scale();
+        let grow = 1e-4 * scale;
+        let boxes: Vec<(Vec3, Vec3)> = (0..facets.len() as u32)
+            .map(|f| {
+                facets.polygons(f).iter().fold(
+                    (Vec3::INFINITY, Vec3::NEG_INFINITY),
+                    |(lo, hi), &p| {
+                        let (a, b) = polygons[p as usize].tree_box(grow);
+                        (lo.min(a), hi.max(b))
+                    },
+                )
+            })
+            .collect();
+        FacetRays {
+            scene,
+            tree: tree(&boxes),
+            terms: polygons.iter().map(|p| (p.terms(), Shape::of(p))).collect(),
+            facets,
+            piece_of,
+            pieces,
+            scale,
+        }
+    }
+
+    /// How many facets the tree holds (what a ray's cost follows).
+    pub fn facet_count(&self) -> usize {
+        self.facets.len()
+    }
+
+    /// Rays whose origin lies far outside the scene go to brute force (as
+    /// `rad_accel::WideBvh`'s do).
+    fn near(&self, ray: &Ray) -> bool {
+        ray.origin.abs().max_element() <= 10.0 * self.scale && !self.scene.polygons().is_empty()
+    }
+
+    /// The hit of `ray` on polygon `p` (`Polygon::intersect`).
+    #[inline]
+    fn hit(&self, p: PolygonId, ray: &Ray) -> Option<rad_geometry::PolygonHit> {
+        let (terms, shape) = &self.terms[p as usize];
+        let poly = || &self.scene.polygons()[p as usize];
+        let terms = self.scene.seen(p as usize, terms.at(ray.origin));
+        shape.hit_from(poly, &terms, ray.dir, ray.t_max)
+    }
+
+    /// Calls `call` with every member of facet `f` whose test may accept `ray` no
+    /// farther than `best` (a polygon may come more than once).
+    #[inline]
+    fn candidates(
+        &self,
+        f: u32,
+        ray: &Ray,
+        best: f32,
+        s: &mut FacetRaysScratch,
+        mut call: impl FnMut(PolygonId),
+    ) {
+        let members = self.facets.polygons(f);
+        let piece = self.piece_of[f as usize];
+        if piece == NONE {
+            return call(members[0]);
+        }
+        let piece = &self.pieces[piece as usize];
+        let (o, dir) = (ray.origin, ray.dir);
+        let (n32, d32) = self.facets.plane(f);
+        let dn = n32.dot(dir);
+        let cos = dn.abs();
+        let Some(stray) = s.stray(self, f, piece, o) else {
+            // The origin lies (nearly) in the plane.
+            let cos64 = piece.n.dot(dir.as_dvec3()).abs();
+            match piece.near_radius_along(o.as_dvec3(), cos64) {
+                Some(r) => self.facets.for_each_near(f, o, r as f32, call),
+                None => members.iter().for_each(|&p| call(p)),
+            }
+            return;
+        };
+        if (cos as f64) < stray.mu_min {
+            // (It cannot meet the facet's rectangle.)
+            return;
+        }
+        let reach = stray.at(cos as f64);
+        let t = (d32 - n32.dot(o)) / dn;
+        // A member's t and the plane's differ by the stray at most.
+        let limit = best.min(ray.t_max) as f64;
+        if !(t > 0.0) || t as f64 > limit * (1.0 + 1e-3) + 2.0 * reach {
+            return;
+        }
+        if cos as f64 >= stray.mu_located {
+            self.facets.for_each_holding(f, o, dir, call);
+        } else {
+            let r = reach + piece.margin;
+            if r > 4.0 * self.facets.cell_size(f) as f64 {
+                members.iter().for_each(|&p| call(p));
+            } else {
+                self.facets.for_each_within(f, o, dir, r as f32, call);
+            }
+        }
+    }
+}
+
+impl<T: BoxTree + Sync> RayCast for FacetRays<'_, T> {
+    type Scratch = FacetRaysScratch;
+
+    fn new_scratch(&self) -> FacetRaysScratch {
+        FacetRaysScratch::default()
+    }
+
+    fn closest_hit(&self, ray: &Ray, s: &mut FacetRaysScratch) -> Option<Hit> {
+        if !self.near(ray) {
+            // (Brute force: the nearest, the lower id on a tie.)
+            let mut all = Vec::new();
+            self.scene.all_hits(ray, &mut all);
+            return all.first().copied();
+        }
+        let mut best: Option<Hit> = None;
+        self.tree.closest(ray.origin, ray.dir, |k| {
+            let f = self.tree.index(k);
+            let mut nearest = f32::INFINITY;
+            let bt = best.map_or(f32::INFINITY, |b| b.t);
+            self.candidates(f, ray, bt, s, |p| {
+                if p == ray.skip {
+                    return;
+                }
+                if let Some((t, u, v, front)) = self.hit(p, ray) {
+                    // The lower id wins a tie, whatever the order candidates come in.
+                    if best.is_none_or(|b| t < b.t || (t == b.t && p < b.polygon)) {
+                        best = Some(Hit {
+                            polygon: p,
+                            u,
+                            v,
+                            t,
+                            front,
+                        });
+                    }
+                    nearest = nearest.min(t);
+                }
+            });
+            nearest
+        });
+        best
+    }
+
+    fn all_hits(&self, ray: &Ray, s: &mut FacetRaysScratch, out: &mut Vec<Hit>) {
+        if !self.near(ray) {
+            return self.scene.all_hits(ray, out);
+        }
+        out.clear();
+        self.tree.every(ray.origin, ray.dir, |k| {
+            let f = self.tree.index(k);
+            self.candidates(f, ray, f32::INFINITY, s, |p| {
+                if p == ray.skip {
+                    return;
+                }
+                if let Some((t, u, v, front)) = self.hit(p, ray) {
+                    out.push(Hit {
+                        polygon: p,
+                        u,
+                        v,
+                        t,
+                        front,
+                    });
+                }
+            });
+        });
+        // (A polygon found twice is the same hit twice.)
+        out.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.polygon.cmp(&b.polygon)));
+        out.dedup_by_key(|h| (h.t.to_bits(), h.polygon));
+    }
+}
+
+impl Piece {
+    /// For a ray from `o` (nearly in the facet's plane: [`Piece::stray`] is None)
+    /// meeting the plane at a cosine of `cos`: how far from `o`'s foot on the plane a
+    /// member must come to be hit at all (None if the ray runs nearly along the plane),
+    /// as [`Piece::near_radius`] bounds it for a hemisphere's rays.
+    fn near_radius_along(&self, o: DVec3, cos: f64) -> Option<f64> {
+        let d_min = cos - 2.0 * self.tilt - 1e-5;
+        if d_min <= 1e-5 {
+            return None;
+        }
+        let size = o.abs().max_element() + self.magnitude;
+        let num = (self.n.dot(o) - self.d).abs()
+            + self.off
+            + 16.0 * super::ULP * (self.d.abs() + 3.0 * size);
+        let t_max = 1.01 * num / d_min;
+        Some(t_max + self.reach + self.off + 1e-5 * (1.0 + size) + self.margin)
+    }
+}
