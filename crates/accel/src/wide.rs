@@ -21,6 +21,11 @@ use obvhs::{aabb::Aabb, cwbvh::builder::build_cwbvh, cwbvh::CwBvh, ray::RayHit, 
 use rad_core::{BoxTree, Hit, PolygonId, Ray, RayCast};
 use rad_geometry::{PolygonTerms, Scene, Shape};
 
+/// How far back along the ray traversal starts: `obvhs` drops boxes the ray leaves
+/// before t = 1e-4 (a fixed distance, its `EPSILON`), which in a scene smaller than
+/// about 1 (whose boxes grow by less) would lose hits nearer than that.
+const BACK_OFF: f32 = 2e-4;
+
 /// `obvhs`'s eight-wide BVH over boxes, for casters whose leaves are not one polygon
 /// each (a facet of many, say): the leaves are the boxes' indices in the tree's order.
 pub struct WideTree {
@@ -56,17 +61,24 @@ impl BoxTree for WideTree {
     }
 
     #[inline]
-    fn closest(&self, origin: glam::Vec3, dir: glam::Vec3, leaf: impl FnMut(usize) -> f32) {
+    fn closest_within(
+        &self,
+        origin: glam::Vec3,
+        dir: glam::Vec3,
+        t_max: f32,
+        leaf: impl FnMut(usize) -> f32,
+    ) {
         let mut leaf = leaf;
-        let ray = obvhs::ray::Ray::new(a(origin), a(dir), 0.0, f32::INFINITY);
+        let ray = obvhs::ray::Ray::new(a(origin - dir * BACK_OFF), a(dir), 0.0, t_max + BACK_OFF);
         let mut hit = RayHit::none();
-        self.bvh.ray_traverse(ray, &mut hit, |_, k| leaf(k));
+        self.bvh
+            .ray_traverse(ray, &mut hit, |_, k| leaf(k) + BACK_OFF);
     }
 
     #[inline]
     fn every(&self, origin: glam::Vec3, dir: glam::Vec3, leaf: impl FnMut(usize)) {
         let mut leaf = leaf;
-        let ray = obvhs::ray::Ray::new(a(origin), a(dir), 0.0, f32::INFINITY);
+        let ray = obvhs::ray::Ray::new(a(origin - dir * BACK_OFF), a(dir), 0.0, f32::INFINITY);
         self.bvh.ray_traverse_anyhit(ray, |_, k| leaf(k));
     }
 }

@@ -90,10 +90,16 @@ pub trait BoxTree {
     /// The box at leaf position `k` (what a leaf call is given): its index in the
     /// boxes the tree was built from.
     fn index(&self, k: usize) -> u32;
-    /// Each leaf position `k` whose box the ray from `origin` along `dir` enters,
-    /// nearest first, passed to `leaf`, which returns the distance of a hit found there
-    /// (or infinity): boxes entered beyond the nearest such distance are skipped.
-    fn closest(&self, origin: Vec3, dir: Vec3, leaf: impl FnMut(usize) -> f32);
+    /// Each leaf position `k` whose box the ray from `origin` along `dir` enters (from
+    /// t = 0 on, at any distance), in a near-to-far order, passed to `leaf`, which
+    /// returns the distance of a hit found there (or infinity): boxes entered beyond
+    /// the nearest such distance are skipped.
+    fn closest(&self, origin: Vec3, dir: Vec3, leaf: impl FnMut(usize) -> f32) {
+        self.closest_within(origin, dir, f32::INFINITY, leaf)
+    }
+    /// [`BoxTree::closest`] with the boxes entered beyond `t_max` skipped from the
+    /// start (a hit at `t_max` found by other means).
+    fn closest_within(&self, origin: Vec3, dir: Vec3, t_max: f32, leaf: impl FnMut(usize) -> f32);
     /// Every leaf position whose box the ray enters, passed to `leaf`.
     fn every(&self, origin: Vec3, dir: Vec3, leaf: impl FnMut(usize));
 }

@@ -189,17 +189,19 @@ pub fn radiance_of(b: &[[f64; 3]]) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// From how many rays an image goes through [`rad_hemisphere::FacetRays`] (on a mesh
-/// of few flat pieces): its rays are cheaper than the wide BVH's (1.4 times on the
-/// 115,200-triangle loft), its build dearer (about 120 ms more there).
+/// From how many rays a thread an image goes through [`rad_hemisphere::FacetRays`]
+/// (on a mesh of few flat pieces): its rays are cheaper than the wide BVH's (1.4 times
+/// on the 115,200-triangle loft), its build, on one thread, dearer (about 120 ms more
+/// there).
 pub const FACET_RENDER_RAYS: u64 = 2_000_000;
 
 /// The image of the radiosities `b` of `scene` from `view`, its rays through the wide
 /// BVH ([`rad_accel::WideBvh`]), which gives the voxel grid's hits to the bit and is
-/// the fastest of the casters on every bench scene (see `cargo bench -p rad-pipeline
-/// --bench render`); or, for an image of [`FACET_RENDER_RAYS`] rays or more of a mesh
-/// whose flat pieces hold eight polygons or more on average, through the same BVH over
-/// those pieces ([`rad_hemisphere::FacetRays`]: the same hits, to the bit).
+/// the fastest to build and the fastest of the casters on polygons and scattered
+/// meshes (see `cargo bench -p rad-pipeline --bench render`); or, for an image of
+/// [`FACET_RENDER_RAYS`] rays a thread or more of a mesh whose flat pieces hold eight
+/// polygons or more on average, through the same BVH over those pieces
+/// ([`rad_hemisphere::FacetRays`]: the same hits, to the bit).
 pub fn render_image(
     scene: &rad_geometry::Scene,
     b: &[[f64; 3]],
@@ -207,7 +209,7 @@ pub fn render_image(
     config: &rad_render::RenderConfig,
 ) -> Result<rad_render::Image, Error> {
     let rays = view.width as u64 * view.height as u64 * (config.samples as u64).pow(2);
-    if rays >= FACET_RENDER_RAYS {
+    if rays >= FACET_RENDER_RAYS * rayon::current_num_threads() as u64 {
         let facets = rad_hemisphere::FacetRays::new(scene, rad_accel::WideTree::new);
         if facets.facet_count() * 8 <= scene.polygons().len() {
             return Ok(rad_render::render(scene, &facets, view, b, config)?);

@@ -76,6 +76,34 @@ proptest! {
         }
     }
 
+    /// In a scene a hundred thousand times smaller (boxes grown by less than obvhs's
+    /// fixed 1e-4 start), the wide BVH still gives brute force's hits, near ones too.
+    #[test]
+    fn the_wide_bvh_matches_brute_force_in_tiny_scenes(
+        desc in random_scene(12),
+        rays in proptest::collection::vec(ray(), 1..40),
+    ) {
+        let mut desc = desc;
+        for p in &mut desc.polygons {
+            for v in &mut p.vertices {
+                *v *= 1e-5;
+            }
+        }
+        let scene = Scene::new(desc);
+        prop_assume!(scene.is_ok());
+        let scene = scene.unwrap();
+        let brute = BruteForce::new(&scene);
+        let wide = WideBvh::new(&scene);
+        let (mut bs, mut ha, mut hb) = (brute.new_scratch(), Vec::new(), Vec::new());
+        for &(o, d) in &rays {
+            let r = Ray::new(o * 1e-5, d);
+            prop_assert_eq!(wide.closest_hit(&r, &mut ()), brute.closest_hit(&r, &mut bs));
+            wide.all_hits(&r, &mut (), &mut ha);
+            brute.all_hits(&r, &mut bs, &mut hb);
+            prop_assert_eq!(&ha, &hb);
+        }
+    }
+
     #[test]
     fn shared_origin_queries_match_single_rays(
         desc in random_scene(12),

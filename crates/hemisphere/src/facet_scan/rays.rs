@@ -27,25 +27,34 @@ pub struct FacetRays<'s, T> {
     /// By polygon: its hit-test terms and shape.
     terms: Vec<(PolygonTerms, Shape)>,
     scale: f32,
+    /// Unique to this caster (a scratch made for another is not trusted).
+    id: u64,
 }
+
+/// The next [`FacetRays`]' `id`.
+static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
 /// Per-thread memory of [`FacetRays`]: each facet's stray from the last origin.
 #[derive(Clone, Debug, Default)]
 pub struct FacetRaysScratch {
-    origin: Option<[u32; 3]>,
+    /// The caster it was made for ([`FacetRays`]' `id`) and the origin.
+    origin: Option<(u64, [u32; 3])>,
     stamp: u32,
     /// By facet: the stamp it was made for, and its stray (None: the origin lies
     /// (nearly) in its plane).
     strays: Vec<(u32, Option<Stray>)>,
+    /// The facet the last ray from this origin met nearest (a camera's next ray most
+    /// often meets it too: resolved first, its hit bounds the traversal).
+    last: Option<((u64, [u32; 3]), u32)>,
 }
 
 impl FacetRaysScratch {
     /// Facet `f`'s stray from `o` (made once an origin).
     #[inline]
     fn stray<T>(&mut self, rays: &FacetRays<T>, f: u32, piece: &Piece, o: Vec3) -> Option<Stray> {
-        let bits = o.to_array().map(f32::to_bits);
-        if self.origin != Some(bits) || self.strays.len() != rays.piece_of.len() {
-            self.origin = Some(bits);
+        let key = (rays.id, o.to_array().map(f32::to_bits));
+        if self.origin != Some(key) || self.strays.len() != rays.piece_of.len() {
+            self.origin = Some(key);
             if self.strays.len() != rays.piece_of.len() || self.stamp == u32::MAX {
                 self.strays.clear();
                 self.strays.resize(rays.piece_of.len(), (0, None));
@@ -89,6 +98,7 @@ impl<'s, T: BoxTree> FacetRays<'s, T> {
             piece_of,
             pieces,
             scale,
+            id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         }
     }
 
@@ -110,6 +120,32 @@ impl<'s, T: BoxTree> FacetRays<'s, T> {
         let poly = || &self.scene.polygons()[p as usize];
         let terms = self.scene.seen(p as usize, terms.at(ray.origin));
         shape.hit_from(poly, &terms, ray.dir, ray.t_max)
+    }
+
+    /// Facet `f`'s members' hits of `ray` offered to `best` (the nearest kept, the
+    /// lower id winning a tie whatever the order); the nearest t among them.
+    #[inline]
+    fn resolve(&self, f: u32, ray: &Ray, s: &mut FacetRaysScratch, best: &mut Option<Hit>) -> f32 {
+        let mut nearest = f32::INFINITY;
+        let bt = best.map_or(f32::INFINITY, |b| b.t);
+        self.candidates(f, ray, bt, s, |p| {
+            if p == ray.skip {
+                return;
+            }
+            if let Some((t, u, v, front)) = self.hit(p, ray) {
+                if best.is_none_or(|b| t < b.t || (t == b.t && p < b.polygon)) {
+                    *best = Some(Hit {
+                        polygon: p,
+                        u,
+                        v,
+                        t,
+                        front,
+                    });
+                }
+                nearest = nearest.min(t);
+            }
+        });
+        nearest
     }
 
     /// Calls `call` with every member of facet `f` whose test may accept `ray` no
@@ -181,30 +217,24 @@ impl<T: BoxTree + Sync> RayCast for FacetRays<'_, T> {
             return all.first().copied();
         }
         let mut best: Option<Hit> = None;
-        self.tree.closest(ray.origin, ray.dir, |k| {
+        let key = (self.id, ray.origin.to_array().map(f32::to_bits));
+        // The last ray's facet first: boxes entered beyond its hit are never visited
+        // (and a tie at that t still is: its box is entered no later).
+        let guess = s.last.filter(|l| l.0 == key).map(|l| l.1);
+        if let Some(g) = guess {
+            self.resolve(g, ray, s, &mut best);
+        }
+        let t_max = best.map_or(f32::INFINITY, |b| b.t);
+        self.tree.closest_within(ray.origin, ray.dir, t_max, |k| {
             let f = self.tree.index(k);
-            let mut nearest = f32::INFINITY;
-            let bt = best.map_or(f32::INFINITY, |b| b.t);
-            self.candidates(f, ray, bt, s, |p| {
-                if p == ray.skip {
-                    return;
-                }
-                if let Some((t, u, v, front)) = self.hit(p, ray) {
-                    // The lower id wins a tie, whatever the order candidates come in.
-                    if best.is_none_or(|b| t < b.t || (t == b.t && p < b.polygon)) {
-                        best = Some(Hit {
-                            polygon: p,
-                            u,
-                            v,
-                            t,
-                            front,
-                        });
-                    }
-                    nearest = nearest.min(t);
-                }
-            });
-            nearest
+            if Some(f) == guess {
+                return f32::INFINITY;
+            }
+            self.resolve(f, ray, s, &mut best)
         });
+        if let Some(b) = best {
+            s.last = Some((key, self.facets.facet_of(b.polygon)));
+        }
         best
     }
 
