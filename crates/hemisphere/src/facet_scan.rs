@@ -414,12 +414,14 @@ impl Piece {
             .map(|c| (*c - o).length())
             .fold(0.0, f64::max)
             + self.off;
-        // (At a cosine of 1e-4, t's f32 rounding is still within 2e-3 of it.)
-        if h <= 2e-4 * far {
-            return None;
-        }
         let size = o.abs().max_element() + self.magnitude + far;
         let flat = 32.0 * ULP * size;
+        // (At a cosine of 1e-4, t's f32 rounding is still within 2e-3 of it; and an
+        // origin within a few roundings of the plane may see its f32 side wrong, as for
+        // a small facet far from the coordinates' origin.)
+        if h <= 2e-4 * far || h <= 4.0 * flat {
+            return None;
+        }
         let stray = Stray {
             base: self.off + flat,
             flat,
