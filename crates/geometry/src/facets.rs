@@ -26,6 +26,8 @@ pub struct Facets {
     members: Vec<PolygonId>,
     /// The edges of the polygons of facets of several, one cache line each.
     edges: Vec<Outline>,
+    /// By polygon: its slot in `edges` (`EMPTY` for a facet of one).
+    slot_of: Vec<u32>,
     /// The grids' cells, each facet's from its `first_cell`: up to four indices into
     /// `edges` (`EMPTY` for none); a cell of more has `OVERFLOW | k` last, its others
     /// in `overflow[overflow_start[k]..overflow_start[k + 1]]`.
@@ -169,6 +171,10 @@ impl Facets {
             out.facets.push(facet);
         }
         out.facet_of = facet_of;
+        out.slot_of = vec![EMPTY; n];
+        for (slot, o) in out.edges.iter().enumerate() {
+            out.slot_of[o.polygon as usize] = slot as u32;
+        }
         out
     }
 
@@ -542,26 +548,55 @@ impl Facets {
     /// (none where the ray does not meet the plane ahead, or meets it outside the
     /// facet's box); a facet of one polygon gives it whatever the ray. (Candidates for
     /// each polygon's own hit test, which decides.)
-    pub fn for_each_holding(&self, f: u32, o: Vec3, dir: Vec3, mut call: impl FnMut(PolygonId)) {
+    pub fn for_each_holding(&self, f: u32, o: Vec3, dir: Vec3, call: impl FnMut(PolygonId)) {
+        let facet = &self.facets[f as usize];
+        let t = (facet.d - facet.n.dot(o)) / facet.n.dot(dir);
+        self.for_each_holding_at(f, o, dir, t, None, call)
+    }
+
+    /// [`Facets::for_each_holding`] given the ray's t at the plane, computed as it does
+    /// (`(d − n·o) / n·dir` of [`Facets::plane`]), and trying `likely` first: where that
+    /// polygon (of facet `f`) holds the point by over the margin, it alone is called
+    /// (the polygons of a facet do not overlap, and the margin covers how far past its
+    /// edges any member's test reaches: see [`Located::Clear`]).
+    #[inline]
+    pub fn for_each_holding_at(
+        &self,
+        f: u32,
+        o: Vec3,
+        dir: Vec3,
+        t: f32,
+        likely: Option<PolygonId>,
+        mut call: impl FnMut(PolygonId),
+    ) {
         let facet = &self.facets[f as usize];
         if facet.members.len() == 1 {
             call(self.members[facet.members.start as usize]);
             return;
         }
-        let t = (facet.d - facet.n.dot(o)) / facet.n.dot(dir);
+        // (NaN fails this.)
+        if !(t > 0.0 && t < f32::INFINITY) {
+            return;
+        }
         let p = o + dir * t;
         let (x, y) = (p.dot(facet.axes[0]), p.dot(facet.axes[1]));
+        if let Some(q) = likely {
+            let slot = self.slot_of[q as usize];
+            if slot != EMPTY
+                && self.facet_of[q as usize] == f
+                && self.inside_by(slot, x, y) > facet.margin
+            {
+                call(q);
+                return;
+            }
+        }
         let (gx, gy) = (
             (x - facet.lo[0]) * facet.inv_cell,
             (y - facet.lo[1]) * facet.inv_cell,
         );
         // (NaN fails these.)
-        let inside = t > 0.0
-            && t < f32::INFINITY
-            && gx >= 0.0
-            && gy >= 0.0
-            && gx < facet.dims[0] as f32
-            && gy < facet.dims[1] as f32;
+        let inside =
+            gx >= 0.0 && gy >= 0.0 && gx < facet.dims[0] as f32 && gy < facet.dims[1] as f32;
         if !inside {
             return;
         }

@@ -45,7 +45,7 @@ use rad_core::{prefetch, Hit, PolygonId, Ray, Vec3};
 use rad_geometry::{Facets, LocateScratch, Located, Polygon, PolygonTerms, Scene, Shape};
 
 mod rays;
-pub use rays::{FacetRays, FacetRaysScratch};
+pub use rays::{FacetRays, FacetRaysScratch, BIN_RAYS_PER_FACET, MIN_BIN_RAYS};
 
 /// The facet scan (see the module's text), made for one scene.
 #[derive(Clone, Debug)]

@@ -18,7 +18,10 @@ mod scan;
 
 pub use caster::{Caster, Scan, Viewpoint};
 pub use cells::{delta_form_factors, DeltaRule, Hemisphere, HemisphereConfig, MAX_CELLS};
-pub use facet_scan::{FacetRays, FacetRaysScratch, FacetScan, FacetScanScratch, FacetScanStats};
+pub use facet_scan::{
+    FacetRays, FacetRaysScratch, FacetScan, FacetScanScratch, FacetScanStats, BIN_RAYS_PER_FACET,
+    MIN_BIN_RAYS,
+};
 pub use hierarchy::{Hierarchy, HierarchyRays, HierarchyScratch, HierarchyStats, TILE};
 pub use lambert::point_to_polygon_form_factor;
 pub use rad_core::{BACK, ESCAPED};

@@ -1,8 +1,10 @@
 //! `render/<scene>/640x480/<caster>`: the loft from its camera, 640 × 480, 2 × 2 rays a
-//! pixel, smooth shading, on one thread: the 185-polygon loft through the voxel grid
-//! (the way it was rendered before), the hierarchy's tree and the wide BVH (what
-//! `render_image` uses), and the same room as 115,200 triangles (`loft_fine`) through
-//! all three; every patch given a radiosity by its id, so that shading does real work.
+//! pixel, smooth shading, on one thread: the 185-polygon loft and the same room as
+//! 115,200 triangles (`loft_fine`), each through the voxel grid (the way the loft was
+//! rendered before), the hierarchy's tree, the wide BVH, and `FacetRays` (what
+//! `render_image` uses for both at this size: its facets binned by direction from the
+//! camera, within each render); every patch given a radiosity by its id, so that
+//! shading does real work.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use rad_accel::VoxelGrid;

@@ -189,19 +189,18 @@ pub fn radiance_of(b: &[[f64; 3]]) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// From how many rays a thread an image goes through [`rad_hemisphere::FacetRays`]
-/// (on a mesh of few flat pieces): its rays are cheaper than the wide BVH's (1.4 times
-/// on the 115,200-triangle loft), its build, on one thread, dearer (about 120 ms more
-/// there).
-pub const FACET_RENDER_RAYS: u64 = 2_000_000;
+/// From how many rays a thread, per polygon, an image goes through
+/// [`rad_hemisphere::FacetRays`] rather than the wide BVH: its rays from the camera are
+/// far cheaper (binned by direction from it), its build dearer (about a microsecond a
+/// polygon more, on one thread).
+pub const FACET_RENDER_RAYS_PER_POLYGON: u64 = 8;
 
-/// The image of the radiosities `b` of `scene` from `view`, its rays through the wide
-/// BVH ([`rad_accel::WideBvh`]), which gives the voxel grid's hits to the bit and is
-/// the fastest to build and the fastest of the casters on polygons and scattered
-/// meshes (see `cargo bench -p rad-pipeline --bench render`); or, for an image of
-/// [`FACET_RENDER_RAYS`] rays a thread or more of a mesh whose flat pieces hold eight
-/// polygons or more on average, through the same BVH over those pieces
-/// ([`rad_hemisphere::FacetRays`]: the same hits, to the bit).
+/// The image of the radiosities `b` of `scene` from `view`, its rays through
+/// [`rad_hemisphere::FacetRays`] (the scene's flat pieces binned by direction from the
+/// camera) if the image has [`FACET_RENDER_RAYS_PER_POLYGON`] rays a thread per
+/// polygon or more, else through the wide BVH ([`rad_accel::WideBvh`]), the fastest to
+/// build; both give the voxel grid's hits to the bit (see `cargo bench -p rad-pipeline
+/// --bench render`).
 pub fn render_image(
     scene: &rad_geometry::Scene,
     b: &[[f64; 3]],
@@ -209,11 +208,10 @@ pub fn render_image(
     config: &rad_render::RenderConfig,
 ) -> Result<rad_render::Image, Error> {
     let rays = view.width as u64 * view.height as u64 * (config.samples as u64).pow(2);
-    if rays >= FACET_RENDER_RAYS * rayon::current_num_threads() as u64 {
+    let per_thread = rays / rayon::current_num_threads().max(1) as u64;
+    if per_thread >= FACET_RENDER_RAYS_PER_POLYGON * scene.polygons().len() as u64 {
         let facets = rad_hemisphere::FacetRays::new(scene, rad_accel::WideTree::new);
-        if facets.facet_count() * 8 <= scene.polygons().len() {
-            return Ok(rad_render::render(scene, &facets, view, b, config)?);
-        }
+        return Ok(rad_render::render(scene, &facets, view, b, config)?);
     }
     let bvh = rad_accel::WideBvh::new(scene);
     Ok(rad_render::render(scene, &bvh, view, b, config)?)
@@ -250,7 +248,7 @@ mod render_tests {
     }
 
     /// On the loft cut into 28,800 triangles (180 flat pieces), rays through the facets
-    /// render the wide BVH's image, to the bit.
+    /// render the wide BVH's image, to the bit, through the tree and binned.
     #[test]
     fn facet_rays_render_the_wide_bvh_image() {
         let scene = rad_geometry::Scene::new(rad_geometry::scenes::loft_triangles()).unwrap();
@@ -267,6 +265,10 @@ mod render_tests {
         let bvh = rad_accel::WideBvh::new(&scene);
         let w = rad_render::render(&scene, &bvh, &view, &b, &config).unwrap();
         let f = rad_render::render(&scene, &facets, &view, &b, &config).unwrap();
+        assert_eq!(w, f);
+        // (Binned by direction from the camera at its first ray.)
+        let binned = facets.bin_after(1);
+        let f = rad_render::render(&scene, &binned, &view, &b, &config).unwrap();
         assert_eq!(w, f);
         assert!(w.pixels.iter().any(|p| p[0] > 0.0));
     }

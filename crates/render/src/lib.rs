@@ -176,48 +176,78 @@ pub fn smooth_at(poly: &Polygon, corners: &[[f64; 3]], u: f32, v: f32) -> [f64; 
     })
 }
 
+/// Per-polygon corner values for smooth shading ([`corner_values`]), in one array:
+/// polygon `k`'s are `corners[k]`, `(nu + 1) × (nv + 1)` of them, row by row.
+#[derive(Clone, Debug, Default)]
+pub struct Corners {
+    /// Polygon k's values are `values[start[k]..start[k + 1]]`.
+    start: Vec<usize>,
+    values: Vec<[f64; 3]>,
+}
+
+impl std::ops::Index<usize> for Corners {
+    type Output = [[f64; 3]];
+
+    fn index(&self, k: usize) -> &[[f64; 3]] {
+        &self.values[self.start[k]..self.start[k + 1]]
+    }
+}
+
 /// Per-polygon corner values for smooth shading: `(nu + 1) × (nv + 1)` per polygon, the
 /// mean of the (one to four) patches of the polygon around each corner of its grid.
-pub fn corner_values(scene: &Scene, b: &[[f64; 3]]) -> Vec<Vec<[f64; 3]>> {
+pub fn corner_values(scene: &Scene, b: &[[f64; 3]]) -> Corners {
     let patches = scene.patches();
-    scene
-        .polygons()
-        .iter()
-        .map(|poly| {
-            let (nu, nv) = poly.grid();
-            let real = |i: i64, j: i64| -> Option<PatchId> {
-                if i < 0 || j < 0 || i >= nu as i64 || j >= nv as i64 {
-                    return None;
-                }
-                let p = poly.cell_patch(i as u32, j as u32);
-                (patches[p as usize].cell == [i as u32, j as u32]).then_some(p)
-            };
-            let mut out = Vec::with_capacity(((nu + 1) * (nv + 1)) as usize);
-            for j in 0..=nv as i64 {
-                for i in 0..=nu as i64 {
-                    let mut s = [0.0; 3];
-                    let mut n = 0.0;
-                    for (di, dj) in [(-1, -1), (0, -1), (-1, 0), (0, 0)] {
-                        if let Some(p) = real(i + di, j + dj) {
-                            for c in 0..3 {
-                                s[c] += b[p as usize][c];
-                            }
-                            n += 1.0;
-                        }
-                    }
-                    if n == 0.0 {
-                        // A corner no patch touches: take the nearest cell's patch.
-                        let ci = i.clamp(0, nu as i64 - 1) as u32;
-                        let cj = j.clamp(0, nv as i64 - 1) as u32;
-                        s = b[poly.cell_patch(ci, cj) as usize];
-                        n = 1.0;
-                    }
-                    out.push(s.map(|v| v / n));
-                }
+    let polygons = scene.polygons();
+    let mut start = Vec::with_capacity(polygons.len() + 1);
+    start.push(0);
+    for poly in polygons {
+        let (nu, nv) = poly.grid();
+        start.push(start.last().copied().unwrap_or(0) + ((nu + 1) * (nv + 1)) as usize);
+    }
+    let mut values = Vec::with_capacity(start.last().copied().unwrap_or(0));
+    for poly in polygons {
+        let (nu, nv) = poly.grid();
+        let real = |i: i64, j: i64| -> Option<PatchId> {
+            if i < 0 || j < 0 || i >= nu as i64 || j >= nv as i64 {
+                return None;
             }
-            out
-        })
-        .collect()
+            let p = poly.cell_patch(i as u32, j as u32);
+            (patches[p as usize].cell == [i as u32, j as u32]).then_some(p)
+        };
+        if (nu, nv) == (1, 1) {
+            // One patch (a mesh's triangle): each corner's mean is of it alone, as
+            // below (0 + b, over 1).
+            let c = match real(0, 0) {
+                Some(p) => b[p as usize].map(|v| (0.0 + v) / 1.0),
+                None => b[poly.cell_patch(0, 0) as usize],
+            };
+            values.extend([c; 4]);
+            continue;
+        }
+        for j in 0..=nv as i64 {
+            for i in 0..=nu as i64 {
+                let mut s = [0.0; 3];
+                let mut n = 0.0;
+                for (di, dj) in [(-1, -1), (0, -1), (-1, 0), (0, 0)] {
+                    if let Some(p) = real(i + di, j + dj) {
+                        for c in 0..3 {
+                            s[c] += b[p as usize][c];
+                        }
+                        n += 1.0;
+                    }
+                }
+                if n == 0.0 {
+                    // A corner no patch touches: take the nearest cell's patch.
+                    let ci = i.clamp(0, nu as i64 - 1) as u32;
+                    let cj = j.clamp(0, nv as i64 - 1) as u32;
+                    s = b[poly.cell_patch(ci, cj) as usize];
+                    n = 1.0;
+                }
+                values.push(s.map(|v| v / n));
+            }
+        }
+    }
+    Corners { start, values }
 }
 
 /// Renders radiosities `b` (one RGB per patch) of `scene` through `caster` from `view`.
@@ -253,7 +283,7 @@ pub fn render<C: RayCast>(
     }
     let corners = match config.shading {
         Shading::Smooth => corner_values(scene, b),
-        Shading::Flat => Vec::new(),
+        Shading::Flat => Corners::default(),
     };
     let polygons = scene.polygons();
     let n = config.samples;

@@ -166,6 +166,48 @@ proptest! {
     }
 }
 
+proptest! {
+    /// Rays from one origin through facets binned by direction from it (a light
+    /// buffer, made at the first ray) give brute force's hits to the bit: from anywhere,
+    /// and from a patch centre (in its facet's plane) with and without its polygon
+    /// skipped, along and nearly along the plane, with and without a bound on t.
+    #[test]
+    fn binned_facet_rays_match_brute_force(
+        desc in random_scene(8),
+        sides in two_sided_flags(),
+        cuts in proptest::collection::vec(1usize..5, 1..8),
+        offset in prop_oneof![Just(0.0f64), Just(37.0)],
+        flat in any::<bool>(),
+        free in ray(),
+        pick in any::<prop::sample::Index>(),
+        dirs in proptest::collection::vec((unit_vector(), -1e-4f32..1e-4), 1..40),
+    ) {
+        let scene = mesh_scene(desc, &sides, &cuts, offset, flat);
+        prop_assume!(scene.is_ok());
+        let scene = scene.unwrap();
+        let shift = glam::Vec3::new(offset as f32, -0.5 * offset as f32, 0.25 * offset as f32);
+        let patch = &scene.patches()[pick.index(scene.patches().len())];
+        let n = patch.normal;
+        let facets = FacetRays::new(&scene, rad_accel::WideTree::new).bin_after(1);
+        let brute = BruteForce::new(&scene);
+        let (mut fs, mut bs) = (facets.new_scratch(), brute.new_scratch());
+        for (origin, skip) in [(free.0 + shift, None), (patch.center, None), (patch.center, Some(patch.polygon))] {
+            let mut rays = vec![Ray::new(origin, free.1)];
+            for (d, lift) in &dirs {
+                let along = (*d - n * d.dot(n)).normalize_or_zero();
+                let slant = (along + n * *lift).normalize_or_zero();
+                rays.extend([*d, slant].into_iter().filter(|d| d.length() > 0.5).map(|d| Ray::new(origin, d)));
+            }
+            for r in rays {
+                for t_max in [f32::INFINITY, 1.5] {
+                    let r = Ray { t_max, skip: skip.unwrap_or(r.skip), ..r };
+                    prop_assert_eq!(facets.closest_hit(&r, &mut fs), brute.closest_hit(&r, &mut bs), "{:?}", r);
+                }
+            }
+        }
+    }
+}
+
 /// On the loft cut into 115,200 triangles, single rays through its 180 facets give
 /// brute force's hits (rays from the camera and from patch centres).
 #[test]
@@ -202,6 +244,17 @@ fn facet_rays_match_brute_force_on_the_fine_loft() {
                 "{r:?}"
             );
         }
+    }
+    // The camera's rays through the facets binned by direction from it.
+    let binned = facets.bin_after(1);
+    let mut fs = binned.new_scratch();
+    for _ in 0..2000 {
+        let r = Ray::new(camera, dir());
+        assert_eq!(
+            binned.closest_hit(&r, &mut fs),
+            brute.closest_hit(&r, &mut bs),
+            "{r:?}"
+        );
     }
 }
 

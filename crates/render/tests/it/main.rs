@@ -188,3 +188,46 @@ fn relative_difference_statistics() {
         Err(Error::SizeMismatch { .. })
     ));
 }
+
+/// A polygon of one patch (a mesh's triangle) has that patch's radiosity at every
+/// corner, +0 for −0 as the sum of its neighbours gives; a polygon of several, the
+/// mean of the (one to four) patches about each corner.
+#[test]
+fn corner_values_are_the_means_of_the_patches_about_each_corner() {
+    let scene = Scene::new(rad_geometry::scenes::loft_triangles()).unwrap();
+    let b: Vec<[f64; 3]> = (0..scene.patches().len())
+        .map(|k| [k as f64, -0.0, (k % 3) as f64])
+        .collect();
+    let corners = rad_render::corner_values(&scene, &b);
+    let mut ones = 0;
+    for (k, poly) in scene.polygons().iter().enumerate() {
+        if poly.grid() == (1, 1) {
+            ones += 1;
+            let p = poly.cell_patch(0, 0) as usize;
+            for c in &corners[k] {
+                assert_eq!(
+                    c.map(f64::to_bits),
+                    [b[p][0], 0.0, b[p][2]].map(f64::to_bits)
+                );
+            }
+        }
+    }
+    assert!(ones > 1000, "{ones}");
+    // The cube's faces are cut 2 × 2 (or finer): a face's middle corner is the mean of
+    // its four patches.
+    let scene = cube_scene();
+    let b: Vec<[f64; 3]> = (0..scene.patches().len())
+        .map(|k| [k as f64, 1.0, 0.0])
+        .collect();
+    let corners = rad_render::corner_values(&scene, &b);
+    let poly = &scene.polygons()[0];
+    let (nu, nv) = poly.grid();
+    assert!(nu >= 2 && nv >= 2);
+    let (i, j) = (1u32, 1u32);
+    let mean = [(0, 0), (1, 0), (0, 1), (1, 1)]
+        .iter()
+        .map(|&(di, dj)| b[poly.cell_patch(i - di, j - dj) as usize][0])
+        .sum::<f64>()
+        / 4.0;
+    assert_eq!(corners[0][(j * (nu + 1) + i) as usize][0], mean);
+}
