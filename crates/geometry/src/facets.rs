@@ -400,7 +400,19 @@ impl Facets {
         scratch: &mut LocateScratch,
     ) {
         let facet = &self.facets[f as usize];
-        let n = self.points(facet, o, [dx, dy, dz], nearer, min_cos, scratch);
+        // (Compiled for the widest vector set: the same operations, so the same bits.)
+        let n = rad_core::with_isa!(rad_core::Isa::detect(), |ISA| fn(
+            facet: &Facet = facet,
+            o: Vec3 = o,
+            dx: &[f32] = dx,
+            dy: &[f32] = dy,
+            dz: &[f32] = dz,
+            nearer: &[f32] = nearer,
+            min_cos: f32 = min_cos,
+            scratch: &mut LocateScratch = scratch,
+        ) -> usize {
+            Facets::points(facet, o, [dx, dy, dz], nearer, min_cos, scratch)
+        });
         out.clear();
         let LocateScratch { x, y, t, cell } = scratch;
         // Grid cells are fetched `AHEAD` rays ahead, their first two outlines half as far.
@@ -465,7 +477,6 @@ impl Facets {
     /// `nearer`, or outside the grid), branch-free (vectorised); the number of rays.
     #[inline(always)]
     fn points(
-        &self,
         facet: &Facet,
         o: Vec3,
         [dx, dy, dz]: [&[f32]; 3],
