@@ -197,7 +197,8 @@ pub const FACET_RENDER_RAYS_PER_POLYGON: u64 = 8;
 
 /// The image of the radiosities `b` of `scene` from `view`, its rays through
 /// [`rad_hemisphere::FacetRays`] (the scene's flat pieces binned by direction from the
-/// camera) if the image has [`FACET_RENDER_RAYS_PER_POLYGON`] rays a thread per
+/// camera, once, if it has [`rad_hemisphere::BIN_RAYS_PER_FACET`] rays a piece or
+/// more) if the image has [`FACET_RENDER_RAYS_PER_POLYGON`] rays a thread per
 /// polygon or more, else through the wide BVH ([`rad_accel::WideBvh`]), the fastest to
 /// build; both give the voxel grid's hits to the bit (see `cargo bench -p rad-pipeline
 /// --bench render`).
@@ -210,7 +211,11 @@ pub fn render_image(
     let rays = view.width as u64 * view.height as u64 * (config.samples as u64).pow(2);
     let per_thread = rays / rayon::current_num_threads().max(1) as u64;
     if per_thread >= FACET_RENDER_RAYS_PER_POLYGON * scene.polygons().len() as u64 {
-        let facets = rad_hemisphere::FacetRays::new(scene, rad_accel::WideTree::new);
+        let mut facets = rad_hemisphere::FacetRays::new(scene, rad_accel::WideTree::new);
+        if facets.facet_count() as u64 * rad_hemisphere::BIN_RAYS_PER_FACET <= rays {
+            // (Once for every thread: the camera's rays share its position.)
+            facets = facets.bin_from(view.ray(0.5, 0.5).origin);
+        }
         return Ok(rad_render::render(scene, &facets, view, b, config)?);
     }
     let bvh = rad_accel::WideBvh::new(scene);
@@ -266,7 +271,12 @@ mod render_tests {
         let w = rad_render::render(&scene, &bvh, &view, &b, &config).unwrap();
         let f = rad_render::render(&scene, &facets, &view, &b, &config).unwrap();
         assert_eq!(w, f);
-        // (Binned by direction from the camera at its first ray.)
+        // Binned by direction from the camera: once for all threads, and at each
+        // scratch's first ray.
+        let shared = rad_hemisphere::FacetRays::new(&scene, rad_accel::WideTree::new)
+            .bin_from(view.ray(0.5, 0.5).origin);
+        let f = rad_render::render(&scene, &shared, &view, &b, &config).unwrap();
+        assert_eq!(w, f);
         let binned = facets.bin_after(1);
         let f = rad_render::render(&scene, &binned, &view, &b, &config).unwrap();
         assert_eq!(w, f);

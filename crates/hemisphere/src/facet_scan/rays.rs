@@ -29,9 +29,12 @@ pub struct FacetRays<'s, T> {
     tree: T,
     /// Those boxes, by facet.
     boxes: Vec<(Vec3, Vec3)>,
-    /// After how many rays from one origin (in a row, on one thread) the facets are
-    /// binned by direction from it ([`FacetRays::bin_after`]).
+    /// After how many rays from one origin (in a row, through one scratch) the facets
+    /// are binned by direction from it ([`FacetRays::bin_after`]).
     bin_after: u64,
+    /// The facets binned from one origin for every scratch ([`FacetRays::bin_from`]):
+    /// the origin's bits and the bins.
+    shared: Option<([u32; 3], Bins)>,
     /// By polygon: its hit-test terms and shape.
     terms: Vec<(PolygonTerms, Shape)>,
     scale: f32,
@@ -39,8 +42,9 @@ pub struct FacetRays<'s, T> {
     id: u64,
 }
 
-/// After how many rays from one origin, per facet, [`FacetRays`] bins the facets by
-/// direction from it (a light buffer: its rays then walk no tree). Binning a facet
+/// After how many rays from one origin, per facet, in a row through one scratch (a
+/// rayon job's), [`FacetRays`] bins the facets by direction from it (a light buffer:
+/// its rays then walk no tree), unless binned from it already ([`FacetRays::bin_from`]). Binning a facet
 /// costs about what a few rays do: a 640 × 480 image of 2 × 2 rays a pixel of the
 /// 20,488-facet `blob_room`, on one thread, takes 0.17 s binned and 0.22 s through
 /// the tree.
@@ -116,6 +120,7 @@ impl<'s, T: BoxTree> FacetRays<'s, T> {
             scene,
             tree: tree(&boxes),
             bin_after: (BIN_RAYS_PER_FACET * boxes.len() as u64).max(MIN_BIN_RAYS),
+            shared: None,
             boxes,
             terms: polygons.iter().map(|p| (p.terms(), Shape::of(p))).collect(),
             facets,
@@ -126,8 +131,18 @@ impl<'s, T: BoxTree> FacetRays<'s, T> {
         }
     }
 
+    /// This caster with its facets binned by direction from `origin` once for every
+    /// thread (a camera's: see [`BIN_RAYS_PER_FACET`]); unchanged if the bins would
+    /// hold too many entries. The hits are the same either way.
+    pub fn bin_from(mut self, origin: Vec3) -> Self {
+        if let Some(bins) = Bins::new(origin, &self.boxes) {
+            self.shared = Some((origin.to_array().map(f32::to_bits), bins));
+        }
+        self
+    }
+
     /// This caster binning the facets by direction from an origin once `rays` rays in a
-    /// row (on one thread) have come from it, rather than after
+    /// row (through one scratch: a rayon job's) have come from it, rather than after
     /// [`BIN_RAYS_PER_FACET`] a facet (at least [`MIN_BIN_RAYS`]): the hits are the
     /// same either way.
     pub fn bin_after(mut self, rays: u64) -> Self {
@@ -273,7 +288,8 @@ impl<T: BoxTree> FacetRays<'_, T> {
 
     /// `ray`'s nearest hit offered to `best` from the facets of its cell in `bins`,
     /// nearest box first, until a box lies beyond the nearest hit (`guess`, resolved
-    /// already, skipped); false if the ray has no cell (a zero or NaN direction).
+    /// already, skipped); false if the ray has no cell (a zero, infinite or NaN
+    /// direction) or a length too small to bound its distances in f32.
     fn closest_binned(
         &self,
         bins: &Bins,
@@ -288,6 +304,9 @@ impl<T: BoxTree> FacetRays<'_, T> {
         // A hit at t lies t |dir| from the origin, in its facet's box (the entry's
         // distance is rounded down; the slack covers this product's rounding).
         let len = ray.dir.length() * (1.0 + 1e-5);
+        if !len.is_normal() {
+            return false;
+        }
         for &(near, f) in bins.cell(cell) {
             let t = best.map_or(ray.t_max, |b| b.t.min(ray.t_max));
             if near > t * len {
@@ -324,9 +343,12 @@ impl<T: BoxTree + Sync> RayCast for FacetRays<'_, T> {
         if let Some((_, g, p)) = last {
             self.resolve(g, ray, Some(p), s, &mut best);
         }
-        let binned = match self.bins_for(key, ray.origin, s) {
-            Some(bins) => self.closest_binned(&bins, ray, guess, s, &mut best),
-            None => false,
+        let binned = match &self.shared {
+            Some((o, bins)) if *o == key.1 => self.closest_binned(bins, ray, guess, s, &mut best),
+            _ => match self.bins_for(key, ray.origin, s) {
+                Some(bins) => self.closest_binned(&bins, ray, guess, s, &mut best),
+                None => false,
+            },
         };
         if !binned {
             let t_max = best.map_or(f32::INFINITY, |b| b.t);

@@ -198,10 +198,15 @@ proptest! {
                 let slant = (along + n * *lift).normalize_or_zero();
                 rays.extend([*d, slant].into_iter().filter(|d| d.length() > 0.5).map(|d| Ray::new(origin, d)));
             }
+            // (Also binned once, for every scratch.)
+            let shared = FacetRays::new(&scene, rad_accel::WideTree::new).bin_from(origin);
+            let mut ss = shared.new_scratch();
             for r in rays {
                 for t_max in [f32::INFINITY, 1.5] {
                     let r = Ray { t_max, skip: skip.unwrap_or(r.skip), ..r };
-                    prop_assert_eq!(facets.closest_hit(&r, &mut fs), brute.closest_hit(&r, &mut bs), "{:?}", r);
+                    let want = brute.closest_hit(&r, &mut bs);
+                    prop_assert_eq!(facets.closest_hit(&r, &mut fs), want, "{:?}", r);
+                    prop_assert_eq!(shared.closest_hit(&r, &mut ss), want, "{:?}", r);
                 }
             }
         }

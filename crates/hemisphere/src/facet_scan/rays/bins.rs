@@ -86,8 +86,12 @@ impl Bins {
         let mut entries = vec![(0.0f32, 0u32); total];
         for &(dist, f) in &order {
             let (lo, hi) = boxes[f as usize];
-            // Rounded down (a box is never farther than its entry says).
-            let near = (dist * (1.0 - 1e-6)) as f32;
+            // Rounded down (a box is never nearer than its entry says).
+            let mut near = (dist * (1.0 - 1e-6)) as f32;
+            if near as f64 > dist {
+                // (Among subnormals the cast may round up.)
+                near = f32::from_bits(near.to_bits() - 1);
+            }
             footprint(lo.as_dvec3() - o, hi.as_dvec3() - o, dist, |c| {
                 entries[next[c] as usize] = (near, f);
                 next[c] += 1;
