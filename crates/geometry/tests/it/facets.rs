@@ -182,3 +182,86 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// Given a likely polygon (any of the floor's, or another facet's), the polygons
+    /// `for_each_holding_at` names are among those it names without one, and every
+    /// polygon it drops rejects the ray: the candidates' own tests find the same hits.
+    #[test]
+    fn a_likely_polygon_drops_only_polygons_that_miss(
+        n in 1usize..12,
+        ox in -0.5f32..1.5, oy in 0.01f32..2.0, oz in -0.5f32..1.5,
+        tx in -0.05f32..1.05, tz in -0.05f32..1.05,
+        likely in any::<prop::sample::Index>(),
+        pick in 0..3,
+        on_edge in any::<bool>(),
+    ) {
+        // (Aimed at a grid line, the point lies on the edge two triangles share.)
+        let tx = if on_edge { (tx * n as f32).round() / n as f32 } else { tx };
+        let scene = Scene::new(tessellated_floor(n)).unwrap();
+        let facets = scene.facets();
+        let floor = facets.facet_of(5);
+        let o = Vec3::new(ox, oy, oz);
+        let d = (Vec3::new(tx, 0.0, tz) - o).normalize();
+        let (nv, dv) = facets.plane(floor);
+        let t = (dv - nv.dot(o)) / nv.dot(d);
+        let mut all = Vec::new();
+        facets.for_each_holding(floor, o, d, |p| all.push(p));
+        let mut some = Vec::new();
+        // (The polygon the ray hits, as a camera's last ray would suggest, one across
+        // its edge, or any.)
+        let hit = all.iter().copied().find(|&p| scene.polygons()[p as usize].intersect(o, d, f32::INFINITY).is_some());
+        let any = likely.index(scene.polygons().len()) as u32;
+        let q = match (hit, pick) {
+            (Some(h), 0) => h,
+            (Some(h), 1) => {
+                let across = scene.edge_neighbours().across(h).to_vec();
+                across.into_iter().filter(|&p| p != NO_POLYGON).nth(likely.index(3)).unwrap_or(h)
+            }
+            _ => any,
+        };
+        facets.for_each_holding_at(floor, o, d, t, Some(q), |p| some.push(p));
+        prop_assert!(some.iter().all(|p| all.contains(p)), "{:?} {:?}", some, all);
+        let hits = |ps: &[u32]| -> Vec<u32> {
+            ps.iter()
+                .copied()
+                .filter(|&p| scene.polygons()[p as usize].intersect(o, d, f32::INFINITY).is_some())
+                .collect()
+        };
+        prop_assert_eq!(hits(&some), hits(&all));
+    }
+}
+
+/// Rays from above onto a tessellated floor, each suggested the triangle it hits: the
+/// likely triangle alone is named for most (those well inside it), the same hits found.
+#[test]
+fn a_likely_polygon_that_holds_the_point_is_named_alone() {
+    let scene = Scene::new(tessellated_floor(8)).unwrap();
+    let facets = scene.facets();
+    let floor = facets.facet_of(5);
+    let o = Vec3::new(0.3, 1.2, 0.6);
+    let (nv, dv) = facets.plane(floor);
+    let mut alone = 0;
+    for k in 0..500 {
+        let (x, z) = (
+            (k as f32 * 0.618_034).fract(),
+            (k as f32 * 0.414_214).fract(),
+        );
+        let d = (Vec3::new(x, 0.0, z) - o).normalize();
+        let t = (dv - nv.dot(o)) / nv.dot(d);
+        let hit = (5..scene.polygons().len() as u32)
+            .find(|&p| {
+                scene.polygons()[p as usize]
+                    .intersect(o, d, f32::INFINITY)
+                    .is_some()
+            })
+            .unwrap();
+        let mut some = Vec::new();
+        facets.for_each_holding_at(floor, o, d, t, Some(hit), |p| some.push(p));
+        assert!(some.contains(&hit), "ray {k}: {some:?}");
+        alone += usize::from(some == [hit]);
+    }
+    assert!(alone > 400, "{alone} of 500 named alone");
+}

@@ -206,4 +206,16 @@ mod tests {
             assert!(bins.cell(c).windows(2).all(|w| w[0].0 <= w[1].0));
         }
     }
+
+    /// Bins that would hold more than `MAX_ENTRIES` entries are not made (the rays go
+    /// through the tree).
+    #[test]
+    fn too_many_entries_make_no_bins() {
+        let about = (Vec3::splat(-1.0), Vec3::splat(1.0));
+        let cells = 6 * SIDE * SIDE;
+        let fits = vec![about; MAX_ENTRIES / cells];
+        assert!(Bins::new(Vec3::ZERO, &fits).is_some());
+        let over = vec![about; MAX_ENTRIES / cells + 1];
+        assert!(Bins::new(Vec3::ZERO, &over).is_none());
+    }
 }
