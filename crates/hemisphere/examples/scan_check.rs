@@ -63,6 +63,17 @@ fn profile<C: Caster>(
         }
     }
     let ms = t.elapsed().as_secs_f64() * 1e3 / (10 * patches.len()) as f64;
+    // With each hemisphere's row summed from its item buffer too (what the yardstick's
+    // Embree `p16_full` times).
+    let mut acc = rad_hemisphere::RowAccumulator::new(scene.patches().len());
+    let t = std::time::Instant::now();
+    for _ in 0..10 {
+        for &p in patches {
+            caster.item_buffer(scene, hemi, p, &mut s, &mut buf);
+            std::hint::black_box(hemi.row_from_items(p, &buf, &mut acc));
+        }
+    }
+    let ms_row = t.elapsed().as_secs_f64() * 1e3 / (10 * patches.len()) as f64;
     let mut seen = 0usize;
     for &p in patches {
         caster.item_buffer(scene, hemi, p, &mut s, &mut buf);
@@ -72,7 +83,7 @@ fn profile<C: Caster>(
         seen += ids.len();
     }
     println!(
-        "{name}: {ms:.2} ms per hemisphere, {} patches seen a hemisphere ({} in all); {}",
+        "{name}: {ms:.2} ms per hemisphere ({ms_row:.2} ms with its row), {} patches seen a hemisphere ({} in all); {}",
         seen / patches.len(),
         scene.patches().len(),
         stats(&s)
