@@ -199,13 +199,9 @@ pub fn corner_values(scene: &Scene, b: &[[f64; 3]]) -> Corners {
     let patches = scene.patches();
     let polygons = scene.polygons();
     let mut start = Vec::with_capacity(polygons.len() + 1);
-    start.push(0);
+    let mut values = Vec::new();
     for poly in polygons {
-        let (nu, nv) = poly.grid();
-        start.push(start.last().copied().unwrap_or(0) + ((nu + 1) * (nv + 1)) as usize);
-    }
-    let mut values = Vec::with_capacity(start.last().copied().unwrap_or(0));
-    for poly in polygons {
+        start.push(values.len());
         let (nu, nv) = poly.grid();
         let real = |i: i64, j: i64| -> Option<PatchId> {
             if i < 0 || j < 0 || i >= nu as i64 || j >= nv as i64 {
@@ -247,6 +243,7 @@ pub fn corner_values(scene: &Scene, b: &[[f64; 3]]) -> Corners {
             }
         }
     }
+    start.push(values.len());
     Corners { start, values }
 }
 

@@ -27,8 +27,8 @@ pub(super) struct Bins {
     entries: Vec<(f32, u32)>,
 }
 
-/// The cube face (0..6: +x, −x, +y, −y, +z, −z) and the cell of direction `d` (None for
-/// a zero or NaN direction).
+/// The cell of direction `d`, its cube face (0..6: +x, −x, +y, −y, +z, −z) first
+/// (None for a zero, infinite or NaN direction).
 #[inline]
 pub(super) fn cell_of(d: Vec3) -> Option<usize> {
     let a = d.abs();
@@ -66,21 +66,21 @@ impl Bins {
             .collect();
         order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let cells = 6 * SIDE * SIDE;
-        let mut count = vec![0u32; cells + 1];
+        // Each cell's count, then (summed) its start.
+        let mut start = vec![0u32; cells + 1];
         let mut total = 0usize;
         for &(dist, f) in &order {
             let (lo, hi) = boxes[f as usize];
             footprint(lo.as_dvec3() - o, hi.as_dvec3() - o, dist, |c| {
-                count[c] += 1;
+                start[c + 1] += 1;
                 total += 1;
             });
             if total > MAX_ENTRIES {
                 return None;
             }
         }
-        let mut start = vec![0u32; cells + 1];
         for c in 0..cells {
-            start[c + 1] = start[c] + count[c];
+            start[c + 1] += start[c];
         }
         let mut next = start.clone();
         let mut entries = vec![(0.0f32, 0u32); total];
@@ -111,11 +111,11 @@ impl Bins {
 /// `lo..hi` (relative to the origin, `dist` from it) may fall in, once each.
 fn footprint(lo: DVec3, hi: DVec3, dist: f64, mut call: impl FnMut(usize)) {
     for face in 0..6 {
-        let (axis, sign) = (face / 2, if face % 2 == 0 { 1.0 } else { -1.0 });
+        let axis = face / 2;
         let (u_axis, v_axis) = ((axis + 1) % 3, (axis + 2) % 3);
         // The major coordinate's range; a direction of this face has it at 1/√3 of its
         // length or more, so the box's points it may reach lie at dist/√3 or more.
-        let (m_lo, m_hi) = if sign > 0.0 {
+        let (m_lo, m_hi) = if face % 2 == 0 {
             (lo[axis], hi[axis])
         } else {
             (-hi[axis], -lo[axis])
