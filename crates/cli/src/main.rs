@@ -191,8 +191,8 @@ enum Command {
         #[arg(long, value_enum, default_value_t = SolverKind::GaussSeidel)]
         solver: SolverKind,
         /// Stop when max |E + rho F B - B| / max B is at most this (stored: default 1e-9);
-        /// matrix-free and out-of-core: when the largest unshot radiosity over the largest
-        /// radiosity is (default 1e-4)
+        /// matrix-free and out-of-core: when the largest unshot (or ungathered) radiosity
+        /// over the largest radiosity is (default 1e-4)
         #[arg(long)]
         tolerance: Option<f64>,
         /// Stop after this many sweeps (Gauss-Seidel, progressive) or shots (matrix-free,
@@ -1294,7 +1294,7 @@ fn solve(
             Progress::Shots { shots, unshot } => {
                 bar.set_position((n as u64).min(shots as u64));
                 bar.set_message(format!(
-                    "shooting: {shots} shots, {:.2e} of the power unshot",
+                    "shooting: {shots} shots, {:.2e} of the power unshot or ungathered",
                     unshot
                 ));
             }

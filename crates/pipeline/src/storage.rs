@@ -28,7 +28,7 @@ const STORED_BYTES_PER_ENTRY: f64 = 10.0;
 /// Bytes a row entry takes while a chunk is made and taken (`(PatchId, f64)`).
 const ROW_BYTES_PER_ENTRY: f64 = 16.0;
 /// Bytes a patch takes in per-patch arrays (surfaces, radiosities, powers, ...).
-const BYTES_PER_PATCH: f64 = 200.0;
+const BYTES_PER_PATCH: f64 = 256.0;
 /// Rows sampled to estimate the entries a row holds.
 const SAMPLE_ROWS: usize = 64;
 

@@ -197,11 +197,11 @@ fn display(scene: &Scene, solved: &rad_pipeline::solve::Solved) -> Vec<[f64; 3]>
 #[test]
 fn matrix_free_agrees_with_the_stored_solve_and_not_the_threads() {
     let scene = loft();
-    // Shooting solves with F_ji = F_ij A_i / A_j, the stored path with the reciprocal
-    // scaling: two discretisations, which differ by the rows' reciprocity error (mean
-    // image difference 4.6 % at 10 x 40, 1.7 % at 30 x 120; see the README for
-    // 180 x 720), not by the solvers' tolerances (rad-solver's tests: on the same
-    // reciprocal rows, shooting matrix-free agrees with Gauss-Seidel to 1e-6).
+    // Shooting gathers and shoots through halves of each row, so it solves the average
+    // (F + A⁻¹FᵀA) / 2; the stored path solves the reciprocal scaling of the same
+    // average: the two differ by the scaling, not by the solvers' tolerances (rad-solver's
+    // tests: matrix-free shooting agrees with Gauss-Seidel on the average held to 1e-6).
+    // The issue asks 1 % (see the README for 180 x 720).
     let hemi = Hemisphere::new(HemisphereConfig::exact(30, 120)).unwrap();
     let method = RowMethod::Exact {
         caster: CasterKind::Scan,
@@ -239,7 +239,7 @@ fn matrix_free_agrees_with_the_stored_solve_and_not_the_threads() {
     };
     let img = |s| render_image(&scene.scene, &display(&scene.scene, s), &view, &config).unwrap();
     let (_, diff) = rad_render::relative_difference(&img(&reference), &img(&a)).unwrap();
-    assert!(diff.mean < 0.02, "{diff:?}");
+    assert!(diff.mean < 0.01, "{diff:?}");
 }
 
 #[test]

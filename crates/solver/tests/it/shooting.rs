@@ -96,3 +96,90 @@ fn matrix_free_refuses_a_zero_batch_and_passes_source_errors_on() {
     );
     assert!(matches!(err, Err(Error::MissingRow { patch: 9, .. })));
 }
+
+#[test]
+fn matrix_free_shooting_solves_the_average_of_rows_and_their_reciprocals() {
+    // Rows that are not reciprocal (an enclosure's rows, each entry scaled by 0.7 to
+    // 0.9), and a last patch that no row names but that sees the emitter and another: it receives
+    // light only by gathering.
+    let (ff, mut area) = enclosure(60, 7, 0.3);
+    let n = 61;
+    let mut rows: Vec<Vec<(u32, f64)>> = (0..60u32)
+        .map(|i| {
+            let (c, _) = ff.row(i);
+            c.iter()
+                .map(|&j| {
+                    let w = 0.7 + 0.02 * ((i as usize * 7 + j as usize * 13) % 11) as f64;
+                    (j, ff.get(i, j) * w)
+                })
+                .collect()
+        })
+        .collect();
+    rows.push(vec![(5, 0.3), (6, 0.3)]);
+    area.push(0.5);
+    // K = (F + A⁻¹FᵀA) / 2, held.
+    let mut avg: Vec<Vec<(u32, f64)>> = rows
+        .iter()
+        .map(|r| r.iter().map(|&(j, f)| (j, 0.5 * f)).collect())
+        .collect();
+    for (i, r) in rows.iter().enumerate() {
+        for &(j, f) in r {
+            avg[j as usize].push((i as u32, 0.5 * f * area[i] / area[j as usize]));
+        }
+    }
+    let k =
+        FormFactors::from_rows(n, avg.iter().enumerate().map(|(i, r)| (i as u32, &r[..]))).unwrap();
+    let mut s = uniform(&area, [0.0; 3], [0.6, 0.4, 0.2]);
+    s.emission[5] = [3.0, 2.0, 1.0];
+    let cfg = SolveConfig {
+        tolerance: 1e-11,
+        max_iterations: 10_000_000,
+    };
+    let reference = gauss_seidel(&k, &s, &cfg).unwrap();
+    let scale = reference
+        .radiosity
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, v| m.max(*v));
+    let row = |i: u32| ShotRow {
+        columns: rows[i as usize].iter().map(|e| e.0).collect(),
+        values: rows[i as usize].iter().map(|e| e.1 as f32).collect(),
+    };
+    let (sol, stats) = shoot_matrix_free::<Error>(
+        &s,
+        &MatrixFreeConfig {
+            solve: cfg,
+            batch: 8,
+            cache_bytes: usize::MAX,
+        },
+        &mut |ids, _| Ok(ids.iter().map(|&i| row(i)).collect()),
+        &mut |_, _| {},
+    )
+    .unwrap();
+    assert!(sol.report.converged, "{:?}", sol.report);
+    assert!(stats.relative_imbalance < 1e-12, "{stats:?}");
+    assert!(reference.radiosity[60][0] > 0.01 * scale);
+    // F_ij rounded to f32 (6e-8) in the rows shot, K's values in the matrix held.
+    for (i, (a, b)) in reference.radiosity.iter().zip(&sol.radiosity).enumerate() {
+        for c in 0..3 {
+            assert!(
+                (a[c] - b[c]).abs() <= 1e-6 * scale,
+                "patch {i}: {a:?} vs {b:?}"
+            );
+        }
+    }
+    // Plain shooting's system, A⁻¹FᵀA, is another: the halves are what made it K.
+    let mut shot: Vec<Vec<(u32, f64)>> = vec![Vec::new(); n];
+    for (i, r) in rows.iter().enumerate() {
+        for &(j, f) in r {
+            shot[j as usize].push((i as u32, f * area[i] / area[j as usize]));
+        }
+    }
+    let t = FormFactors::from_rows(n, shot.iter().enumerate().map(|(i, r)| (i as u32, &r[..])))
+        .unwrap();
+    let other = gauss_seidel(&t, &s, &cfg).unwrap();
+    let apart = (0..n)
+        .map(|i| (other.radiosity[i][0] - sol.radiosity[i][0]).abs())
+        .fold(0.0, f64::max);
+    assert!(apart > 1e-3 * scale, "{apart}");
+}
