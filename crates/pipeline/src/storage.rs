@@ -11,7 +11,8 @@ use rad_estimator::EstimateStats;
 use rad_geometry::Scene;
 use rad_hemisphere::{compute_rows, Caster, Hemisphere};
 use rad_solver::{
-    shoot_matrix_free, MatrixFreeConfig, MatrixFreeStats, ShotRow, Solution, Surfaces,
+    shoot_matrix_free, MatrixFreeConfig, MatrixFreeStats, RowSums, ShootProgress, ShotRow,
+    Solution, Surfaces,
 };
 use rayon::prelude::*;
 
@@ -64,6 +65,19 @@ pub enum Progress {
     Shots { shots: usize, unshot: f64 },
     /// Jacobi sweeps so far and the residual of the radiosities they reached.
     Sweeps { sweeps: usize, residual: f64 },
+}
+
+impl Progress {
+    /// Shooting's report as a solve's.
+    fn of(p: ShootProgress) -> Progress {
+        match p {
+            ShootProgress::Rows(k) => Progress::Rows(k),
+            ShootProgress::Shots { shots, pending } => Progress::Shots {
+                shots,
+                unshot: pending,
+            },
+        }
+    }
 }
 
 /// Chunks of rows a stream holds at most: one being made and one being taken, and for
@@ -271,8 +285,9 @@ pub(crate) fn solve_matrix_free(
                 };
                 Ok(made.rows.into_iter().map(shot_row).collect())
             };
-            let mut progress = |shots, unshot| (self.progress)(Progress::Shots { shots, unshot });
-            shoot_matrix_free(self.surfaces, &self.config, &mut rows, &mut progress)
+            let mut progress = |p| (self.progress)(Progress::of(p));
+            // (The rows' sums first, by a pass of rows: kept while the limit allows.)
+            shoot_matrix_free(self.surfaces, &self.config, None, &mut rows, &mut progress)
         }
     }
     let n = scene.scene.patches().len();
@@ -327,9 +342,14 @@ pub(crate) fn solve_out_of_core(
     let temp = opts.temp_dir();
     let mut file = RowFile::create_in(&temp, n)?;
     let rows_progress = |k| progress(Progress::Rows(k));
+    // (The sums shooting needs, of the values as the file holds them, as the rows pass:
+    // they come in patch order.)
+    let mut sums = RowSums::new(n);
     let stats = crate::rows_streamed(scene, hemi, method, &rows_progress, &mut |made| {
         for r in &made.rows {
             file.push(r.patch, &r.entries)?;
+            let area = surfaces.area[r.patch as usize];
+            sums.add(r.patch, area, r.entries.iter().map(|&(j, f)| (j, f as f32)))?;
         }
         Ok(())
     })?;
@@ -357,8 +377,8 @@ pub(crate) fn solve_out_of_core(
             .map(|(&p, mut row)| file.read_into(p, &mut row).map(|()| row))
             .collect()
     };
-    let mut shots = |shots, unshot| progress(Progress::Shots { shots, unshot });
-    let (solution, m) = shoot_matrix_free(surfaces, &config, &mut rows, &mut shots)?;
+    let mut shots = |p| progress(Progress::of(p));
+    let (solution, m) = shoot_matrix_free(surfaces, &config, Some(sums), &mut rows, &mut shots)?;
     out.shoot_seconds = t.elapsed().as_secs_f64();
     Ok((solution, m, stats, out))
 }

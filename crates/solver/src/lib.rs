@@ -25,7 +25,9 @@ pub use matrix::{reciprocal_scaling, FormFactors, Reciprocity};
 pub use operator::Operator;
 pub use pairs::{median_bin, PairBuilder, PairMatrix};
 pub use rowset::RowSet;
-pub use shooting::{shoot_matrix_free, MatrixFreeConfig, MatrixFreeStats, ShotRow};
+pub use shooting::{
+    shoot_matrix_free, MatrixFreeConfig, MatrixFreeStats, RowSums, ShootProgress, ShotRow,
+};
 pub use solve::{
     energy_balance, energy_balance_from, gauss_seidel, jacobi, jacobi_with, progressive, residual,
     residual_from, EnergyBalance, Solution, SolveConfig, SolveReport, Solver, Surfaces,

@@ -5,12 +5,20 @@
 //!
 //! Each row is used both ways ("halves"): the patch gathers through half of it, then
 //! shoots through the other half by reciprocity. The system solved is then that of the
-//! average `K = (F + A⁻¹FᵀA) / 2`, `A_i K_ij = (A_i F_ij + A_j F_ji) / 2`, which is
-//! exactly reciprocal, as the stored path's scaled matrix is, without ever holding two
-//! rows at once. Shooting alone (`F_ji = F_ij A_i / A_j`) would solve `A⁻¹FᵀA`, which
-//! on hemisphere rows differs from the stored solve by the whole reciprocity error of
-//! small patches (1.4 % mean image difference on the loft at 180 × 720, against 0.8 %
-//! for the average; see the README).
+//! average `(F + A⁻¹FᵀA) / 2`, `A_i F_ij + A_j F_ji` shared equally, without ever
+//! holding two rows at once. Shooting alone (`F_ji = F_ij A_i / A_j`) would solve
+//! `A⁻¹FᵀA`, which on hemisphere rows differs from the stored solve by the whole
+//! reciprocity error of small patches (1.4 % mean image difference on the loft at
+//! 180 × 720, against 0.8 % for the average; see the README).
+//!
+//! The average alone does not conserve power: the power patch `j` sends is its column's
+//! area-weighted sum, `(A_j r_j + c_j) / 2` a unit of radiosity (`r_j = Σ_i F_ji` its
+//! row's sum, `c_j = Σ_i A_i F_ij` its column's), not `A_j r_j`, and on the loft that
+//! made 0.7 % more light than was emitted. So each column is scaled by
+//! `d_j = 2 A_j r_j / (A_j r_j + c_j)`: every patch sends exactly what its row says it
+//! sees, and what escapes is exactly what the rows miss. That needs every row's sums
+//! before the first shot ([`RowSums`]: a pass of the rows, or gathered as they are
+//! written).
 
 use crate::operator::add_scaled;
 use crate::solve::{SolveConfig, SolveReport, Solver, Surfaces};
@@ -32,6 +40,104 @@ impl ShotRow {
     fn bytes(&self) -> usize {
         self.columns.capacity() * 4 + self.values.capacity() * 4 + 64
     }
+}
+
+/// Every row's sum `r_i = Σ_j F_ij` and every column's area-weighted sum
+/// `c_j = Σ_i A_i F_ij`, of the values as shooting reads them (`f32`), added row by row
+/// in patch order, so that the same rows give the same bits however they are gathered.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RowSums {
+    row: Vec<f64>,
+    column: Vec<f64>,
+    next: usize,
+}
+
+impl RowSums {
+    /// Sums of `n` patches' rows, none added yet.
+    pub fn new(n: usize) -> RowSums {
+        RowSums {
+            row: vec![0.0; n],
+            column: vec![0.0; n],
+            next: 0,
+        }
+    }
+
+    /// Adds the row of patch `i` (which must be the next, rows coming in patch order),
+    /// of area `area_i`, its entries `(j, F_ij)` by increasing `j`.
+    pub fn add(
+        &mut self,
+        i: PatchId,
+        area_i: f64,
+        entries: impl IntoIterator<Item = (PatchId, f32)>,
+    ) -> Result<(), Error> {
+        let n = self.row.len();
+        if i as usize != self.next || self.next >= n {
+            return Err(Error::RowSet {
+                reason: format!(
+                    "the row of patch {i} summed where patch {}'s was expected (rows in patch order, 0..{n})",
+                    self.next
+                ),
+            });
+        }
+        let mut sum = 0.0;
+        for (j, f) in entries {
+            let Some(c) = self.column.get_mut(j as usize) else {
+                return Err(Error::EntryOutOfRange {
+                    row: i,
+                    column: j,
+                    n_patches: n,
+                });
+            };
+            *c += area_i * f as f64;
+            sum += f as f64;
+        }
+        self.row[i as usize] = sum;
+        self.next += 1;
+        Ok(())
+    }
+
+    /// Whether every row has been added.
+    pub fn is_complete(&self) -> bool {
+        self.next == self.row.len()
+    }
+
+    /// Refuses sums not of `n` patches' every row.
+    fn check(&self, n: usize) -> Result<(), Error> {
+        if self.row.len() != n || !self.is_complete() {
+            return Err(Error::RowSet {
+                reason: format!(
+                    "row sums of {} of {} patches given to shoot {n}",
+                    self.next,
+                    self.row.len()
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// `d_j = 2 A_j r_j / (A_j r_j + c_j)` (1 where a patch neither sees nor is seen).
+    fn column_scale(&self, area: &[f64]) -> Vec<f64> {
+        (0..self.row.len())
+            .map(|j| {
+                let own = area[j] * self.row[j];
+                let both = own + self.column[j];
+                if both > 0.0 {
+                    2.0 * own / both
+                } else {
+                    1.0
+                }
+            })
+            .collect()
+    }
+}
+
+/// What a long shooting run reports as it goes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ShootProgress {
+    /// Rows summed so far by the first pass (when the sums were not given).
+    Rows(usize),
+    /// Shots so far and the pending share of the emitted power.
+    Shots { shots: usize, pending: f64 },
 }
 
 /// How matrix-free shooting runs.
@@ -66,35 +172,40 @@ pub struct MatrixFreeStats {
     pub relative_imbalance: f64,
 }
 
-/// Solves `B = E + ρ K B`, `K = (F + A⁻¹FᵀA) / 2`, without a matrix: the batch of
+/// Solves `B = E + ρ K B`, `K = (F + A⁻¹FᵀA) D / 2` (`D` the column scaling
+/// `d_j = 2 A_j r_j / (A_j r_j + c_j)` of [`RowSums`], so that `Σ_i A_i K_ij = A_j r_j`:
+/// power conserved), without a matrix. First, unless `sums` are given, every row is
+/// asked for, in batches in patch order, and summed (kept in the cache while it has
+/// room, so that a cache that holds every row makes each row once). Then the batch of
 /// patches of largest pending power `A_i Σ_c (ΔB_{i,c} + W_{i,c})` (unshot radiosity and
 /// the estimate of what its next gather brings; ties to the lower index) have their rows
 /// made by `rows` (those not cached; `rows` may take its rows' storage from the spare rows
 /// it is handed, rows shot and not kept, rather than allocate afresh). Then, one after
 /// the other in that order, each
-/// - gathers `½ Σ_j F_ij S_j` (`S` the radiosity shot so far by each patch), adding to its
-///   radiosity and unshot radiosity what this brings beyond its last gather;
+/// - gathers `½ Σ_j F_ij d_j S_j` (`S` the radiosity shot so far by each patch), adding to
+///   its radiosity and unshot radiosity what this brings beyond its last gather;
 /// - shoots its unshot radiosity `ΔB_i`, giving each `j` in its row
-///   `ρ_j ½ F_ij ΔB_i A_i / A_j` (the other half of `K_ji`, by reciprocity); what `j`
-///   receives this way also estimates what `j`'s next gather of `i`'s shot will bring
+///   `ρ_j ½ F_ij d_i ΔB_i A_i / A_j` (the other half of `K_ji`); what `j` receives this
+///   way also estimates what `j`'s next gather of `i`'s shot will bring
 ///   (`½ F_ji ≈ ½ F_ij A_i / A_j`), so it is added to `W_j` as well.
 ///
 /// Once the largest `ΔB + W` is `tolerance` of the largest radiosity, every patch that
 /// reflects gathers (and shoots) again, in patch order, in rounds interleaved with the
 /// shooting they set off, until a round brings no patch more than `tolerance` of the
-/// largest radiosity: `W` misses what a patch sees that does not see it back. `progress(shots, pending)` after each batch, with the pending share of
-/// the emitted power. Energy is accounted shot by shot and gather by gather: emitted =
-/// absorbed + escaped + unshot, where unshot counts `ΔB + W` and escaped is what the
-/// shots sent that no gather has taken (the rows' reciprocity error and the scene's
-/// openings).
+/// largest radiosity: `W` misses what a patch sees that does not see it back.
+/// `progress` after each batch of the first pass and of shots. Energy is accounted shot
+/// by shot and gather by gather: emitted = absorbed + escaped + unshot, where unshot
+/// counts `ΔB + W` and escaped is what the rows miss (`A_i (1 − r_i)` a unit shot) and
+/// what was sent to be gathered that no gather took.
 ///
 /// The report's residual is the stopping measure (computing the true residual would need
 /// every row).
 pub fn shoot_matrix_free<E: From<Error>>(
     surfaces: &Surfaces,
     config: &MatrixFreeConfig,
+    sums: Option<RowSums>,
     rows: &mut dyn FnMut(&[PatchId], &mut Vec<ShotRow>) -> Result<Vec<ShotRow>, E>,
-    progress: &mut dyn FnMut(usize, f64),
+    progress: &mut dyn FnMut(ShootProgress),
 ) -> Result<(Solution, MatrixFreeStats), E> {
     let n = surfaces.area.len();
     surfaces.validate(n)?;
@@ -108,16 +219,27 @@ pub fn shoot_matrix_free<E: From<Error>>(
         .into());
     }
     let (area, rho) = (&surfaces.area, &surfaces.reflectance);
-    let mut state = State::new(surfaces);
     let mut stats = MatrixFreeStats::default();
-    for i in 0..n {
-        for c in 0..3 {
-            stats.emitted[c] += area[i] * surfaces.emission[i][c];
-        }
-    }
-    let total: f64 = stats.emitted.iter().sum();
     let mut cache: HashMap<PatchId, ShotRow> = HashMap::new();
     let mut spare: Vec<ShotRow> = Vec::new();
+    let sums = match sums {
+        Some(sums) => sums,
+        None => {
+            let keep = Keep {
+                cache: &mut cache,
+                spare: &mut spare,
+                stats: &mut stats,
+                config,
+            };
+            sum_rows(surfaces, keep, rows, progress)?
+        }
+    };
+    sums.check(n)?;
+    let mut state = State::new(surfaces, &sums);
+    drop(sums);
+    stats.emitted =
+        std::array::from_fn(|c| (0..n).map(|i| area[i] * surfaces.emission[i][c]).sum());
+    let total: f64 = stats.emitted.iter().sum();
     let mut order: Vec<usize> = (0..n).collect();
     // Once converged, every patch that reflects gathers again, in rounds in patch order,
     // until a round's gathers bring nothing beyond the tolerance: a gather's estimate `W`
@@ -174,39 +296,26 @@ pub fn shoot_matrix_free<E: From<Error>>(
             }
             state.shoot(i, row, &mut stats);
         }
-        keep_rows(missing, fresh, &mut cache, &mut spare, &mut stats, config);
+        let keep = Keep {
+            cache: &mut cache,
+            spare: &mut spare,
+            stats: &mut stats,
+            config,
+        };
+        keep.rows(missing, fresh);
         sweep = Sweep::of(&state.shades);
-        progress(
-            stats.shots,
-            if total > 0.0 {
+        progress(ShootProgress::Shots {
+            shots: stats.shots,
+            pending: if total > 0.0 {
                 sweep.power / total
             } else {
                 0.0
             },
-        );
+        });
     }
     stats.cached_rows = cache.len();
-    state.close_accounts(&mut stats);
-    let b: Vec<[f64; 3]> = state.shades.iter().map(|s| s.b).collect();
-    let pending: Vec<[f64; 3]> = state
-        .shades
-        .iter()
-        .map(|s| std::array::from_fn(|c| s.unshot[c] + s.pending[c]))
-        .collect();
-    let ambient = crate::solve::ambient_term(area, rho, &pending);
-    Ok((
-        Solution {
-            radiosity: b,
-            ambient,
-            report: SolveReport {
-                solver: Solver::Progressive,
-                iterations: stats.shots,
-                residual: measure,
-                converged: measure <= config.solve.tolerance,
-            },
-        },
-        stats,
-    ))
+    let tolerance = config.solve.tolerance;
+    Ok(state.finish(surfaces, stats, measure, tolerance))
 }
 
 /// Entries a part of a shot or a gather takes: a row is cut into parts of this many
@@ -216,6 +325,17 @@ pub fn shoot_matrix_free<E: From<Error>>(
 const SHOT_PART: usize = 4096;
 /// Parts a row has at least to be taken in parallel.
 const PARALLEL_PARTS: usize = 4;
+
+/// `f` over `parts`, in parallel only when there are [`PARALLEL_PARTS`] at least (waking a
+/// thread for a short row costs more than it saves); the results in order either way.
+fn in_parts<P: Send, T: Send>(parts: Vec<P>, f: impl Fn(P) -> T + Sync + Send) -> Vec<T> {
+    use rayon::prelude::*;
+    if parts.len() >= PARALLEL_PARTS {
+        parts.into_par_iter().map(f).collect()
+    } else {
+        parts.into_iter().map(f).collect()
+    }
+}
 
 /// The next `k` shooters (those with pending power): largest power first, ties to the
 /// lower index.
@@ -258,10 +378,13 @@ struct State {
     gathered: Vec<[f64; 3]>,
     /// Power the shots have sent to be gathered that no gather has taken yet.
     to_gather: [f64; 3],
+    /// The column scaling `d_j`, and the columns' area-weighted sums `c_j`.
+    scale: Vec<f64>,
+    column: Vec<f64>,
 }
 
 impl State {
-    fn new(surfaces: &Surfaces) -> State {
+    fn new(surfaces: &Surfaces, sums: &RowSums) -> State {
         let n = surfaces.area.len();
         let shades = (0..n)
             .map(|i| Shade {
@@ -278,6 +401,8 @@ impl State {
             shot: vec![[0.0; 3]; n],
             gathered: vec![[0.0; 3]; n],
             to_gather: [0.0; 3],
+            scale: sums.column_scale(&surfaces.area),
+            column: sums.column.clone(),
         }
     }
 
@@ -294,11 +419,10 @@ impl State {
         batch
     }
 
-    /// Patch `i` gathers `½ Σ_j F_ij S_j` along its (checked) row: what this brings
+    /// Patch `i` gathers `½ Σ_j F_ij d_j S_j` along its (checked) row: what this brings
     /// beyond its last gather is added to its radiosity and unshot radiosity. Returns
     /// the largest channel of what it added.
     fn gather(&mut self, i: usize, row: &ShotRow, stats: &mut MatrixFreeStats) -> f64 {
-        use rayon::prelude::*;
         let (columns, shot) = (&row.columns, &self.shot);
         let part = |range: std::ops::Range<usize>| {
             let mut h = [0.0f64; 3];
@@ -312,13 +436,8 @@ impl State {
             .step_by(SHOT_PART)
             .map(|s| s..(s + SHOT_PART).min(m))
             .collect();
-        let sums: Vec<[f64; 3]> = if ranges.len() >= PARALLEL_PARTS {
-            ranges.into_par_iter().map(part).collect()
-        } else {
-            ranges.into_iter().map(part).collect()
-        };
         let mut h = [0.0f64; 3];
-        for p in sums {
+        for p in in_parts(ranges, part) {
             add_scaled(&mut h, 0.5, &p);
         }
         let s = &mut self.shades[i];
@@ -338,21 +457,22 @@ impl State {
         brought
     }
 
-    /// Patch `i` shoots its unshot radiosity along its (checked) row: half to be
-    /// gathered, half given now to each `j` by reciprocity.
+    /// Patch `i` shoots its unshot radiosity along its (checked) row, scaled by `d_i`:
+    /// half to be gathered, half given now to each `j` by reciprocity.
     fn shoot(&mut self, i: usize, row: &ShotRow, stats: &mut MatrixFreeStats) {
-        use rayon::prelude::*;
         let (n, columns) = (self.shades.len(), &row.columns);
-        let shot = self.shades[i].unshot;
+        let unshot = self.shades[i].unshot;
         let area_i = self.shades[i].area;
+        let shot: [f64; 3] = std::array::from_fn(|c| self.scale[i] * unshot[c]);
         {
             let s = &mut self.shades[i];
             s.unshot = [0.0; 3];
             s.power = s.area * s.pending.iter().sum::<f64>();
         }
         for c in 0..3 {
+            // (`d_j S_j`, as the gathers take it.)
             self.shot[i][c] += shot[c];
-            self.to_gather[c] += 0.5 * area_i * shot[c];
+            self.to_gather[c] += 0.5 * self.column[i] * shot[c];
         }
         stats.shots += 1;
         // Each part with the patches from its first column to the next part's first.
@@ -390,23 +510,48 @@ impl State {
             }
             (absorbed, sum)
         };
-        // (In parallel only when there is enough to share: waking a thread for a short
-        // row costs more than it saves. The sums are the same either way.)
-        let sums: Vec<([f64; 3], f64)> = if parts.len() >= PARALLEL_PARTS {
-            parts.into_par_iter().map(give).collect()
-        } else {
-            parts.into_iter().map(give).collect()
-        };
         let mut sum = 0.0;
-        for (absorbed, part_sum) in sums {
+        for (absorbed, part_sum) in in_parts(parts, give) {
             for c in 0..3 {
                 stats.absorbed[c] += absorbed[c];
             }
             sum += part_sum;
         }
         for c in 0..3 {
-            stats.escaped[c] += 0.5 * area_i * shot[c] * (1.0 - sum);
+            stats.escaped[c] +=
+                area_i * unshot[c] - 0.5 * self.column[i] * shot[c] - 0.5 * area_i * shot[c] * sum;
         }
+    }
+
+    /// The solution reached (`measure` the stopping measure at the end), its accounts
+    /// closed.
+    fn finish(
+        self,
+        surfaces: &Surfaces,
+        mut stats: MatrixFreeStats,
+        measure: f64,
+        tolerance: f64,
+    ) -> (Solution, MatrixFreeStats) {
+        self.close_accounts(&mut stats);
+        let b: Vec<[f64; 3]> = self.shades.iter().map(|s| s.b).collect();
+        let pending: Vec<[f64; 3]> = self
+            .shades
+            .iter()
+            .map(|s| std::array::from_fn(|c| s.unshot[c] + s.pending[c]))
+            .collect();
+        let ambient = crate::solve::ambient_term(&surfaces.area, &surfaces.reflectance, &pending);
+        let report = SolveReport {
+            solver: Solver::Progressive,
+            iterations: stats.shots,
+            residual: measure,
+            converged: measure <= tolerance,
+        };
+        let solution = Solution {
+            radiosity: b,
+            ambient,
+            report,
+        };
+        (solution, stats)
     }
 
     /// The power left pending (unshot, or expected of the next gathers), what was sent to
@@ -460,27 +605,64 @@ impl Sweep {
     }
 }
 
-/// Keeps the rows just made in the cache while its bytes allow, the others (up to a
-/// batch) as spare storage for the source. (Kept in the batch's order, so that the rows
-/// asked for later, and so those a run shared among processes asks for, do not depend
-/// on a map's order.)
-fn keep_rows(
-    missing: Vec<PatchId>,
-    mut fresh: HashMap<PatchId, ShotRow>,
-    cache: &mut HashMap<PatchId, ShotRow>,
-    spare: &mut Vec<ShotRow>,
-    stats: &mut MatrixFreeStats,
-    config: &MatrixFreeConfig,
-) {
-    for id in missing {
-        let row = fresh.remove(&id).expect("made above");
-        if stats.cached_bytes + row.bytes() <= config.cache_bytes {
-            stats.cached_bytes += row.bytes();
-            cache.insert(id, row);
-        } else if spare.len() < config.batch {
-            spare.push(row);
+/// Where rows just made go: the cache, while its bytes allow, the others (up to a batch)
+/// spare storage for the source.
+struct Keep<'a> {
+    cache: &'a mut HashMap<PatchId, ShotRow>,
+    spare: &'a mut Vec<ShotRow>,
+    stats: &'a mut MatrixFreeStats,
+    config: &'a MatrixFreeConfig,
+}
+
+impl Keep<'_> {
+    /// Keeps `fresh`, the rows of `made` (in its order, so that the rows asked for
+    /// later, and so those a run shared among processes asks for, do not depend on a
+    /// map's order).
+    fn rows(mut self, made: Vec<PatchId>, mut fresh: HashMap<PatchId, ShotRow>) {
+        for id in made {
+            let row = fresh.remove(&id).expect("made above");
+            self.one(id, row);
         }
     }
+
+    fn one(&mut self, id: PatchId, row: ShotRow) {
+        if self.stats.cached_bytes + row.bytes() <= self.config.cache_bytes {
+            self.stats.cached_bytes += row.bytes();
+            self.cache.insert(id, row);
+        } else if self.spare.len() < self.config.batch {
+            self.spare.push(row);
+        }
+    }
+}
+
+/// The first pass: every row asked of `rows` (checked) in batches in patch order and
+/// summed, kept as `keep` allows.
+fn sum_rows<E: From<Error>>(
+    surfaces: &Surfaces,
+    mut keep: Keep<'_>,
+    rows: &mut dyn FnMut(&[PatchId], &mut Vec<ShotRow>) -> Result<Vec<ShotRow>, E>,
+    progress: &mut dyn FnMut(ShootProgress),
+) -> Result<RowSums, E> {
+    let n = surfaces.area.len();
+    let mut sums = RowSums::new(n);
+    let step = keep.config.batch;
+    for start in (0..n).step_by(step) {
+        let ids: Vec<PatchId> = (start..(start + step).min(n))
+            .map(|i| i as PatchId)
+            .collect();
+        let made = rows(&ids, keep.spare)?;
+        check_count(ids.len(), made.len())?;
+        keep.stats.rows_made += made.len();
+        for (&id, row) in ids.iter().zip(made) {
+            let i = id as usize;
+            check_row(i, &row, n)?;
+            let entries = row.columns.iter().copied().zip(row.values.iter().copied());
+            sums.add(id, surfaces.area[i], entries)?;
+            keep.one(id, row);
+        }
+        progress(ShootProgress::Rows(sums.next));
+    }
+    Ok(sums)
 }
 
 /// Refuses a source that gave another number of rows than asked.

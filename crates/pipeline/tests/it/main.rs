@@ -307,7 +307,7 @@ fn out_of_core_is_matrix_free_shooting_to_the_bit_and_leaves_nothing() {
     };
     let surf = surfaces(&scene.scene);
     let (want, _) =
-        rad_solver::shoot_matrix_free(&surf, &config, &mut shot_rows, &mut |_, _| {}).unwrap();
+        rad_solver::shoot_matrix_free(&surf, &config, None, &mut shot_rows, &mut |_| {}).unwrap();
     assert_eq!(e.solution.radiosity, want.radiosity);
     // Nothing is left in the temporary folder.
     assert_eq!(std::fs::read_dir(temp.path()).unwrap().count(), 0);

@@ -3,7 +3,8 @@
 
 use crate::{enclosure, uniform};
 use rad_solver::{
-    gauss_seidel, shoot_matrix_free, Error, FormFactors, MatrixFreeConfig, ShotRow, SolveConfig,
+    gauss_seidel, shoot_matrix_free, Error, FormFactors, MatrixFreeConfig, RowSums, ShootProgress,
+    ShotRow, SolveConfig,
 };
 
 fn row_of(ff: &FormFactors, i: u32) -> ShotRow {
@@ -33,7 +34,7 @@ fn matrix_free_shooting_solves_the_system_and_conserves_energy() {
     let mut answers = Vec::new();
     for (batch, cache_bytes) in [(1, 0), (16, 0), (16, usize::MAX)] {
         let mut asked = 0;
-        let mut last = (0, 1.0);
+        let (mut last, mut summed) = ((0, 1.0), 0);
         let (sol, stats) = shoot_matrix_free::<Error>(
             &s,
             &MatrixFreeConfig {
@@ -41,23 +42,28 @@ fn matrix_free_shooting_solves_the_system_and_conserves_energy() {
                 batch,
                 cache_bytes,
             },
+            None,
             &mut |ids, _| {
                 asked += ids.len();
                 Ok(ids.iter().map(|&i| row_of(&ff, i)).collect())
             },
-            &mut |shots, unshot| last = (shots, unshot),
+            &mut |p| match p {
+                ShootProgress::Rows(k) => summed = k,
+                ShootProgress::Shots { shots, pending } => last = (shots, pending),
+            },
         )
         .unwrap();
+        assert_eq!(summed, 120);
         assert!(sol.report.converged, "{:?}", sol.report);
         assert_eq!(stats.rows_made, asked);
         assert_eq!(last.0, stats.shots);
         assert!(last.1 < 1e-8, "{last:?}");
         assert!(stats.relative_imbalance < 1e-12, "{stats:?}");
         if cache_bytes == usize::MAX {
-            // Every shooter's row made once.
-            assert!(stats.rows_made <= 120 && stats.cached_rows == stats.rows_made);
+            // Every row made once, by the pass that sums them.
+            assert!(stats.rows_made == 120 && stats.cached_rows == 120);
         } else {
-            assert_eq!(stats.rows_made, stats.shots);
+            assert_eq!(stats.rows_made, 120 + stats.shots);
         }
         // F_ij rounded to f32 (6e-8) and F_ji by reciprocity from it.
         for (a, b) in reference.radiosity.iter().zip(&sol.radiosity) {
@@ -81,20 +87,39 @@ fn matrix_free_refuses_a_zero_batch_and_passes_source_errors_on() {
         batch,
         cache_bytes: 0,
     };
-    let err = shoot_matrix_free::<Error>(&s, &cfg(0), &mut |_, _| Ok(vec![]), &mut |_, _| {});
+    let none = &mut |_: &[u32], _: &mut Vec<ShotRow>| Ok(vec![]);
+    let err = shoot_matrix_free::<Error>(&s, &cfg(0), None, none, &mut |_| {});
     assert!(matches!(err, Err(Error::BadConfig { what: "batch", .. })));
     let err = shoot_matrix_free::<Error>(
         &s,
         &cfg(4),
+        None,
         &mut |_, _| {
             Err(Error::MissingRow {
                 patch: 9,
                 n_patches: 5,
             })
         },
-        &mut |_, _| {},
+        &mut |_| {},
     );
     assert!(matches!(err, Err(Error::MissingRow { patch: 9, .. })));
+    // A source that gives fewer rows than asked, in the first pass.
+    let err = shoot_matrix_free::<Error>(&s, &cfg(4), None, none, &mut |_| {});
+    assert!(matches!(err, Err(Error::RowSet { .. })), "{err:?}");
+    // Sums given: rows in patch order, columns in range, every row.
+    let mut sums = RowSums::new(5);
+    let e = sums.add(1, 1.0, [(0, 0.5)]).unwrap_err().to_string();
+    assert!(e.contains("patch 1") && e.contains("patch 0's"), "{e}");
+    let e = sums.add(0, 1.0, [(5, 0.5)]).unwrap_err();
+    assert!(
+        matches!(e, Error::EntryOutOfRange { column: 5, .. }),
+        "{e:?}"
+    );
+    sums.add(0, 1.0, [(1, 0.5)]).unwrap();
+    assert!(!sums.is_complete());
+    let err = shoot_matrix_free::<Error>(&s, &cfg(4), Some(sums), none, &mut |_| {});
+    let e = err.err().unwrap().to_string();
+    assert!(e.contains("row sums of 1 of 5 patches"), "{e}");
 }
 
 #[test]
@@ -117,14 +142,35 @@ fn matrix_free_shooting_solves_the_average_of_rows_and_their_reciprocals() {
         .collect();
     rows.push(vec![(5, 0.3), (6, 0.3)]);
     area.push(0.5);
-    // K = (F + A⁻¹FᵀA) / 2, held.
+    // (The values as shot: f32.)
+    for r in &mut rows {
+        for e in r.iter_mut() {
+            e.1 = e.1 as f32 as f64;
+        }
+    }
+    // K = (F + A⁻¹FᵀA) D / 2, held: d_j = 2 A_j r_j / (A_j r_j + Σ_i A_i F_ij).
+    let r: Vec<f64> = rows.iter().map(|r| r.iter().map(|e| e.1).sum()).collect();
+    let mut c = vec![0.0; n];
+    for (i, row) in rows.iter().enumerate() {
+        for &(j, f) in row {
+            c[j as usize] += area[i] * f;
+        }
+    }
+    let d: Vec<f64> = (0..n)
+        .map(|j| 2.0 * area[j] * r[j] / (area[j] * r[j] + c[j]))
+        .collect();
+    assert!(d.iter().any(|&v| (v - 1.0).abs() > 0.05), "{d:?}");
     let mut avg: Vec<Vec<(u32, f64)>> = rows
         .iter()
-        .map(|r| r.iter().map(|&(j, f)| (j, 0.5 * f)).collect())
+        .map(|r| {
+            r.iter()
+                .map(|&(j, f)| (j, 0.5 * f * d[j as usize]))
+                .collect()
+        })
         .collect();
     for (i, r) in rows.iter().enumerate() {
         for &(j, f) in r {
-            avg[j as usize].push((i as u32, 0.5 * f * area[i] / area[j as usize]));
+            avg[j as usize].push((i as u32, 0.5 * f * area[i] / area[j as usize] * d[i]));
         }
     }
     let k =
@@ -152,12 +198,24 @@ fn matrix_free_shooting_solves_the_average_of_rows_and_their_reciprocals() {
             batch: 8,
             cache_bytes: usize::MAX,
         },
+        None,
         &mut |ids, _| Ok(ids.iter().map(|&i| row(i)).collect()),
-        &mut |_, _| {},
+        &mut |_| {},
     )
     .unwrap();
     assert!(sol.report.converged, "{:?}", sol.report);
     assert!(stats.relative_imbalance < 1e-12, "{stats:?}");
+    // Power conserved: what escapes is exactly what the rows miss, `A_j B_j (1 − r_j)`.
+    for ch in 0..3 {
+        let missed: f64 = (0..n)
+            .map(|j| area[j] * sol.radiosity[j][ch] * (1.0 - r[j]))
+            .sum();
+        let escaped = stats.escaped[ch] + stats.unshot[ch];
+        assert!(
+            (escaped - missed).abs() <= 1e-8 * stats.emitted[ch],
+            "channel {ch}: {escaped} escaped, the rows miss {missed}"
+        );
+    }
     assert!(reference.radiosity[60][0] > 0.01 * scale);
     // F_ij rounded to f32 (6e-8) in the rows shot, K's values in the matrix held.
     for (i, (a, b)) in reference.radiosity.iter().zip(&sol.radiosity).enumerate() {
