@@ -2,7 +2,10 @@
 //! `hemisphere/exact/{loft_patches,loft_triangles,loft_fine,blob_room}/180x720/{grid,scan,hierarchy,facets}`:
 //! one exact hemisphere on
 //! one thread, cycling over patches spread across the scene (so each call is on another
-//! polygon than the last); throughput in rays (cells).
+//! polygon than the last); throughput in rays (cells). And
+//! `hemisphere/exact_row/{loft/180x720/scan,loft_fine/180x720/facets}`: the same with
+//! the hemisphere's row summed from its item buffer, what the yardstick's Embree
+//! `p16_full` times.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use rad_accel::{BruteForce, VoxelGrid, VoxelGridConfig};
@@ -11,7 +14,7 @@ use rad_geometry::scenes::{
 };
 use rad_geometry::Scene;
 use rad_hemisphere::{
-    Caster, FacetScan, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, Scan,
+    Caster, FacetScan, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, RowAccumulator, Scan,
 };
 use std::hint::black_box;
 
@@ -48,6 +51,40 @@ fn bench_caster<C: Caster>(
         })
     });
     group.finish();
+}
+
+/// One exact hemisphere through `caster` and its row summed from the item buffer.
+fn bench_row<C: Caster>(c: &mut Criterion, id: &str, scene: &Scene, caster: &C, samples: usize) {
+    let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).expect("valid resolution");
+    let patches = spread(scene, 64);
+    let mut group = c.benchmark_group("hemisphere/exact_row");
+    group.throughput(Throughput::Elements(hemi.n_cells() as u64));
+    group.sample_size(samples);
+    let mut scratch = caster.scratch();
+    let mut buf = ItemBuffer::default();
+    let mut acc = RowAccumulator::new(scene.patches().len());
+    let mut k = 0;
+    group.bench_function(BenchmarkId::from_parameter(id), |b| {
+        b.iter(|| {
+            k = (k + 1) % patches.len();
+            caster.item_buffer(scene, &hemi, patches[k], &mut scratch, &mut buf);
+            black_box(hemi.row_from_items(patches[k], &buf, &mut acc));
+        })
+    });
+    group.finish();
+}
+
+fn rows(c: &mut Criterion) {
+    let scene = Scene::new(loft()).expect("bench scenes are valid");
+    bench_row(c, "loft/180x720/scan", &scene, &Scan, 60);
+    let scene = Scene::new(loft_fine_triangles()).expect("bench scenes are valid");
+    bench_row(
+        c,
+        "loft_fine/180x720/facets",
+        &scene,
+        &FacetScan::new(&scene),
+        10,
+    );
 }
 
 /// The mesh scenes: every polygon a patch, thousands to 115,200 of them (grid, scan,
@@ -112,5 +149,5 @@ fn exact(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, exact, meshes);
+criterion_group!(benches, exact, meshes, rows);
 criterion_main!(benches);

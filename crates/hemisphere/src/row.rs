@@ -43,7 +43,11 @@ impl Row {
 #[derive(Clone, Debug)]
 pub struct RowAccumulator {
     acc: Vec<f64>,
+    /// The patches touched, in the order first touched: the first `n_touched` (one slot
+    /// more than the patches, written whether or not the patch is new, so that adding
+    /// takes no branch: which patch a cell sees first is not predictable).
     touched: Vec<PatchId>,
+    n_touched: usize,
     /// The radix sort's second buffer.
     spare: Vec<PatchId>,
 }
@@ -52,7 +56,8 @@ impl RowAccumulator {
     pub fn new(n_patches: usize) -> RowAccumulator {
         RowAccumulator {
             acc: vec![0.0; n_patches],
-            touched: Vec::new(),
+            touched: vec![0; n_patches + 1],
+            n_touched: 0,
             spare: Vec::new(),
         }
     }
@@ -60,25 +65,26 @@ impl RowAccumulator {
     #[inline]
     pub fn add(&mut self, patch: PatchId, ff: f64) {
         let a = &mut self.acc[patch as usize];
-        if *a == 0.0 {
-            self.touched.push(patch);
-        }
+        // (A patch is new while its sum is 0: at most once each, as `ff` > 0, so the
+        // count stays within the patches and the slot after them.)
+        self.touched[self.n_touched] = patch;
+        self.n_touched += (*a == 0.0) as usize;
         *a += ff;
     }
 
     /// The accumulated entries, sorted by patch; resets the accumulator.
     pub fn take(&mut self) -> Vec<(PatchId, f64)> {
-        if self.touched.len() < RADIX_FROM {
-            self.touched.sort_unstable();
+        let touched = &mut self.touched[..self.n_touched];
+        if touched.len() < RADIX_FROM {
+            touched.sort_unstable();
         } else {
-            radix_sort(&mut self.touched, &mut self.spare, self.acc.len());
+            radix_sort(touched, &mut self.spare, self.acc.len());
         }
-        let out = self
-            .touched
+        let out = touched
             .iter()
             .map(|&j| (j, std::mem::take(&mut self.acc[j as usize])))
             .collect();
-        self.touched.clear();
+        self.n_touched = 0;
         out
     }
 }
@@ -89,28 +95,34 @@ const RADIX_FROM: usize = 512;
 
 /// Sorts `ids` (each under `n`) in place, by their digits of 11 bits from the lowest
 /// (`spare` a buffer): the same order as any sort.
-fn radix_sort(ids: &mut Vec<PatchId>, spare: &mut Vec<PatchId>, n: usize) {
+fn radix_sort(ids: &mut [PatchId], spare: &mut Vec<PatchId>, n: usize) {
     const BITS: u32 = 11;
     let top = PatchId::BITS - (n.max(1) as PatchId - 1).leading_zeros();
+    spare.clear();
+    spare.resize(ids.len(), 0);
+    // Each pass from one buffer into the other.
+    let (mut from, mut to) = (ids, &mut spare[..]);
     let mut shift = 0;
     while shift < top {
         let mut start = [0u32; (1 << BITS) + 1];
         let digit = |id: PatchId| ((id >> shift) & ((1 << BITS) - 1)) as usize;
-        for &id in ids.iter() {
+        for &id in from.iter() {
             start[digit(id) + 1] += 1;
         }
         for k in 0..1 << BITS {
             start[k + 1] += start[k];
         }
-        spare.clear();
-        spare.resize(ids.len(), 0);
-        for &id in ids.iter() {
+        for &id in from.iter() {
             let d = digit(id);
-            spare[start[d] as usize] = id;
+            to[start[d] as usize] = id;
             start[d] += 1;
         }
-        std::mem::swap(ids, spare);
+        std::mem::swap(&mut from, &mut to);
         shift += BITS;
+    }
+    // (After an odd number of passes the sorted ids are in `spare`.)
+    if (top.div_ceil(BITS)) % 2 == 1 {
+        to.copy_from_slice(from);
     }
 }
 
@@ -341,6 +353,30 @@ mod radix_tests {
                 let (mut got, mut spare) = (ids, Vec::new());
                 super::radix_sort(&mut got, &mut spare, n);
                 assert_eq!(got, want, "n {n}, {len} ids");
+            }
+        }
+    }
+
+    /// The accumulator gives each patch once, in order, its values added in the order
+    /// given, row after row (short rows and rows sorted by radix), every patch touched
+    /// included.
+    #[test]
+    fn the_accumulator_sums_each_patch_once() {
+        let mut s = 11u64;
+        for n in [1usize, 700, 115_200] {
+            let mut acc = super::RowAccumulator::new(n);
+            for len in [0usize, 3, 600, 30_000, 3 * n] {
+                let mut want = std::collections::BTreeMap::<u32, f64>::new();
+                for _ in 0..len {
+                    s = s
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    let (j, ff) = (((s >> 33) % n as u64) as u32, 1.0 + (s >> 60) as f64);
+                    *want.entry(j).or_default() += ff;
+                    acc.add(j, ff);
+                }
+                let got = acc.take();
+                assert_eq!(got, want.into_iter().collect::<Vec<_>>(), "n {n}, {len}");
             }
         }
     }
