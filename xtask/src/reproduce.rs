@@ -27,6 +27,11 @@ pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Resul
             t.elapsed().as_secs_f64()
         );
     };
+    // The solves first, each a child process on an otherwise idle machine: a child's
+    // peak resident set (wait4's ru_maxrss) starts from this process's own at the fork
+    // (Linux keeps the forked copy's high-water mark across exec), and this process
+    // grows to gigabytes in the sections below (every child then reported 3,511 MiB).
+    let solves = crate::solves::run(quick, root, &root.join("target").join("solves-work"))?;
     let r = rad_repro::reproduce::run(quick, &progress).context("the reproduction failed")?;
     let write = |name: &str, text: String| -> Result<()> {
         let path = out.join(name);
@@ -67,9 +72,8 @@ pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Resul
             .with_context(|| format!("writing {}", png.display()))?;
         eprintln!("  wrote {} and .png", exr.display());
     }
-    // The solves last, each a child process on an otherwise idle machine.
-    let solves = crate::solves::run(quick, root, &root.join("target").join("solves-work"))?;
     write("solves.json", crate::solves::json(&provenance, &solves))?;
+    write("solves.md", crate::solves::markdown(&solves))?;
     let wall = t.elapsed().as_secs_f64();
     write(
         "REPORT.md",
