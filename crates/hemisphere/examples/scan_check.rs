@@ -10,7 +10,7 @@ use rad_geometry::scenes::{
 };
 use rad_geometry::Scene;
 use rad_hemisphere::{
-    Caster, FacetScan, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, ScanScratch,
+    Caster, FacetScan, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, Scan, ScanScratch,
 };
 
 fn hs_tests(h: &rad_hemisphere::HierarchyScratch) -> f64 {
@@ -113,8 +113,9 @@ fn check(name: &str, desc: rad_geometry::SceneDesc, hemi: &Hemisphere) {
         ItemBuffer::default(),
         ItemBuffer::default(),
     );
-    // PROFILE=facets: the facet scan alone, the same patches ten times; PROFILE=1:
-    // the hierarchy alone, likewise (for a profiler).
+    // PROFILE=facets: the facet scan alone, the same patches ten times; PROFILE=1 (or
+    // hierarchy): the hierarchy alone; PROFILE=scan: the polygon scan alone; likewise
+    // (for a profiler, and for timing each scene's default caster against Embree).
     match std::env::var("PROFILE").as_deref() {
         Ok("facets") => {
             profile(name, &scene, &hemi, &patches, &fscan, |s| {
@@ -129,7 +130,18 @@ fn check(name: &str, desc: rad_geometry::SceneDesc, hemi: &Hemisphere) {
             });
             return;
         }
-        Ok("1") => {
+        Ok("scan") => {
+            profile(name, &scene, &hemi, &patches, &Scan, |s| {
+                let per = s.stats.hemispheres as f64;
+                format!(
+                    "{:.2} tests/cell, {:.0} full polygons",
+                    s.stats.tests as f64 / per / hemi.n_cells() as f64,
+                    s.stats.full as f64 / per
+                )
+            });
+            return;
+        }
+        Ok("1" | "hierarchy") => {
             profile(name, &scene, &hemi, &patches, &tree, |hs| {
                 let h = hs.stats;
                 let per = h.hemispheres as f64;

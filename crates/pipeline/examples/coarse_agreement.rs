@@ -3,7 +3,8 @@
 //! its centre (same plane, same facing), and the two area-weighted mean radiosities of
 //! each coarse polygon are compared (luminance, relative to the coarse one), each
 //! patch's radiosity with its solution's ambient term as a render shows it
-//! (`B + ρ · ambient`: shooting's unshot light).
+//! (`B + ρ · ambient`: shooting's unshot light). Prints the median and largest
+//! differences, the polygons over 2 %, and the twelve worst with their areas and means.
 //!
 //! `cargo run --release -p rad-pipeline --example coarse_agreement -- COARSE.json
 //! COARSE_SOLUTION.json FINE.json FINE_SOLUTION.json`
@@ -93,5 +94,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         diffs[n - 1].1,
         100.0 * area_over / area_coarse
     );
+    println!("worst: polygon, relative difference, coarse patches' area, coarse luminance, fine luminance");
+    for &(d, k) in diffs.iter().rev().take(12) {
+        let s = sums[k];
+        println!(
+            "  {k:4} {d:8.4} {:10.4} {:10.5} {:10.5}",
+            s[0],
+            s[1] / s[0],
+            s[3] / s[2]
+        );
+    }
     Ok(())
 }
