@@ -80,7 +80,7 @@ pub enum Error {
     Divided { unit: f64, message: String },
     #[error("the scene has no polygons")]
     Empty,
-    #[error("the scene has {count} patches, over the limit of {limit}")]
+    #[error("the scene would have {count} patches, over the limit of {limit} that patch ids allow (cut its polygons coarser, or split the scene)")]
     TooManyPatches { count: u64, limit: u64 },
     #[error("camera {problem}")]
     Camera { problem: String },

@@ -178,6 +178,7 @@ impl Scene {
         // Two-sided polygons' back sides come after every described polygon, so that
         // the described ones keep their indices (the file's, in errors and outputs).
         let backs = back_sides(&desc, unit, back_grids);
+        check_patch_count(&desc, &backs, unit)?;
         let mut polygons = Vec::with_capacity(described + backs.len());
         let mut patches: Vec<Patch> = Vec::new();
         let mut groups = Vec::with_capacity(described + backs.len());
@@ -658,4 +659,28 @@ fn grid_cells(pd: &PolygonDesc, unit: f64) -> Result<(u64, u64), PolygonProblem>
             Ok((cells(lu), cells(lv)))
         }
     }
+}
+
+/// Refuses a scene whose patches would not fit their ids, before any patch is made (a
+/// grid over the per-polygon limit is left to its polygon's own, sharper, error).
+fn check_patch_count(
+    desc: &SceneDesc,
+    backs: &[(usize, PolygonDesc)],
+    unit: f64,
+) -> Result<(), Error> {
+    let count = desc
+        .polygons
+        .iter()
+        .chain(backs.iter().map(|(_, pd)| pd))
+        .filter_map(|pd| grid_cells(pd, unit).ok())
+        .map(|(nu, nv)| nu.saturating_mul(nv))
+        .filter(|&n| n <= crate::polygon::MAX_CELLS_PER_POLYGON)
+        .fold(0u64, u64::saturating_add);
+    if count > MAX_PATCHES {
+        return Err(Error::TooManyPatches {
+            count,
+            limit: MAX_PATCHES,
+        });
+    }
+    Ok(())
 }

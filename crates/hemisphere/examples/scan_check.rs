@@ -113,43 +113,8 @@ fn check(name: &str, desc: rad_geometry::SceneDesc, hemi: &Hemisphere) {
         ItemBuffer::default(),
         ItemBuffer::default(),
     );
-    // PROFILE=facets: the facet scan alone, the same patches ten times; PROFILE=1 (or
-    // hierarchy): the hierarchy alone; PROFILE=scan: the polygon scan alone; likewise
-    // (for a profiler, and for timing each scene's default caster against Embree).
-    match std::env::var("PROFILE").as_deref() {
-        Ok("facets") => {
-            profile(name, &scene, &hemi, &patches, &fscan, |s| {
-                let f = s.stats;
-                format!(
-                    "{:.0} polygons one by one; {:.0} cells located, {:.0} not outside, {:.0} of them given the facet plane's t",
-                    f.one_by_one_polygons as f64 / f.hemispheres as f64,
-                    f.cells as f64 / f.hemispheres as f64,
-                    f.cells_near as f64 / f.hemispheres as f64,
-                    f.direct as f64 / f.hemispheres as f64,
-                )
-            });
-            return;
-        }
-        Ok("scan") => {
-            profile(name, &scene, &hemi, &patches, &Scan, |s| {
-                let per = s.stats.hemispheres as f64;
-                format!(
-                    "{:.2} tests/cell, {:.0} full polygons",
-                    s.stats.tests as f64 / per / hemi.n_cells() as f64,
-                    s.stats.full as f64 / per
-                )
-            });
-            return;
-        }
-        Ok("1" | "hierarchy") => {
-            profile(name, &scene, &hemi, &patches, &tree, |hs| {
-                let h = hs.stats;
-                let per = h.hemispheres as f64;
-                format!("{:.0} nodes, {:.0} occluded, {:.0} polygons, {:.0} flat, {:.0} own, {:.2} tests/cell, {:.0} coplanar skips, {:.0} full", h.nodes as f64 / per, h.occluded as f64 / per, h.polygons as f64 / per, h.flat as f64 / per, h.own as f64 / per, hs_tests(hs) / per / hemi.n_cells() as f64, hs.scan_stats().coplanar_skips as f64 / per, hs.scan_stats().full as f64 / per)
-            });
-            return;
-        }
-        _ => {}
+    if profiled(name, &scene, &hemi, &patches, &tree, &fscan) {
+        return;
     }
     let (mut tg, mut ts, mut th, mut tf) = (0.0, 0.0, 0.0, 0.0);
     let (mut bad, mut bad_h, mut bad_f) = (0, 0, 0);
@@ -216,4 +181,53 @@ fn check(name: &str, desc: rad_geometry::SceneDesc, hemi: &Hemisphere) {
         f.one_by_one as f64 / per,
         fs.scan_stats().tests as f64 / per / hemi.n_cells() as f64,
     );
+}
+
+/// Runs one caster alone when `PROFILE` asks for it; false when it does not.
+fn profiled(
+    name: &str,
+    scene: &Scene,
+    hemi: &Hemisphere,
+    patches: &[u32],
+    tree: &Hierarchy,
+    fscan: &FacetScan,
+) -> bool {
+    // PROFILE=facets: the facet scan alone, the same patches ten times; PROFILE=1 (or
+    // hierarchy): the hierarchy alone; PROFILE=scan: the polygon scan alone; likewise
+    // (for a profiler, and for timing each scene's default caster against Embree).
+    match std::env::var("PROFILE").as_deref() {
+        Ok("facets") => {
+            profile(name, scene, hemi, patches, fscan, |s| {
+                let f = s.stats;
+                format!(
+                    "{:.0} polygons one by one; {:.0} cells located, {:.0} not outside, {:.0} of them given the facet plane's t",
+                    f.one_by_one_polygons as f64 / f.hemispheres as f64,
+                    f.cells as f64 / f.hemispheres as f64,
+                    f.cells_near as f64 / f.hemispheres as f64,
+                    f.direct as f64 / f.hemispheres as f64,
+                )
+            });
+            true
+        }
+        Ok("scan") => {
+            profile(name, scene, hemi, patches, &Scan, |s| {
+                let per = s.stats.hemispheres as f64;
+                format!(
+                    "{:.2} tests/cell, {:.0} full polygons",
+                    s.stats.tests as f64 / per / hemi.n_cells() as f64,
+                    s.stats.full as f64 / per
+                )
+            });
+            true
+        }
+        Ok("1" | "hierarchy") => {
+            profile(name, scene, hemi, patches, tree, |hs| {
+                let h = hs.stats;
+                let per = h.hemispheres as f64;
+                format!("{:.0} nodes, {:.0} occluded, {:.0} polygons, {:.0} flat, {:.0} own, {:.2} tests/cell, {:.0} coplanar skips, {:.0} full", h.nodes as f64 / per, h.occluded as f64 / per, h.polygons as f64 / per, h.flat as f64 / per, h.own as f64 / per, hs_tests(hs) / per / hemi.n_cells() as f64, hs.scan_stats().coplanar_skips as f64 / per, hs.scan_stats().full as f64 / per)
+            });
+            true
+        }
+        _ => false,
+    }
 }

@@ -155,6 +155,29 @@ fn zero_and_huge_patch_grids() {
 }
 
 #[test]
+fn a_scene_too_large_for_the_patch_ids_is_refused_before_any_patch_is_made() {
+    // Five polygons of 4096 x 4096 patches each (each within the per-polygon limit):
+    // 5 x 2^24 patches, over the 2^26 the ids allow. Refused at once, without making
+    // the 2^26 patches before the fifth polygon.
+    let mut desc = one(square(), PatchGrid::Cells { nu: 4096, nv: 4096 });
+    let first = desc.polygons[0].clone();
+    for k in 1..5 {
+        let mut p = first.clone();
+        p.name = format!("p{k}");
+        for v in &mut p.vertices {
+            v.z = k as f64;
+        }
+        desc.polygons.push(p);
+    }
+    let err = Scene::new(desc).expect_err("too many patches");
+    assert!(
+        matches!(err, Error::TooManyPatches { count, limit } if count == 5 << 24 && limit == rad_geometry::MAX_PATCHES),
+        "{err:?}"
+    );
+    assert!(err.to_string().contains("83886080 patches"), "{err}");
+}
+
+#[test]
 fn bad_materials() {
     let mut d = one(square(), G);
     d.materials[0].reflectance = Rgb([0.5, 1.0, 0.5]);
