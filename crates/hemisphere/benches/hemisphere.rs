@@ -1,4 +1,4 @@
-//! `hemisphere/exact/{cube,loft}/180x720/{grid,brute,scan,hierarchy}` and
+//! `hemisphere/exact/{cube,loft}/180x720/{grid,brute,scan,hierarchy,facets}` and
 //! `hemisphere/exact/{loft_patches,loft_triangles,loft_fine,blob_room}/180x720/{grid,scan,hierarchy,facets}`:
 //! one exact hemisphere on
 //! one thread, cycling over patches spread across the scene (so each call is on another
@@ -135,6 +135,14 @@ fn exact(c: &mut Criterion) {
             &format!("{name}/180x720/hierarchy"),
             &scene,
             &tree,
+            &hemi,
+            60,
+        );
+        bench_caster(
+            c,
+            &format!("{name}/180x720/facets"),
+            &scene,
+            &FacetScan::new(&scene),
             &hemi,
             60,
         );
