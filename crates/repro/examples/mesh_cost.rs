@@ -1,10 +1,12 @@
 //! The cost of an estimate on a mesh scene against an exact hemisphere through the
-//! hierarchy, one thread, medians (the reproduction's meshes section):
+//! scene's default caster (`CasterKind::fastest_for`), one thread, medians (the
+//! reproduction's meshes section):
 //! `cargo run --release -p rad-repro --example mesh_cost -- loft_fine [180x720] [WINDOWS]`
 //! (WINDOWS: how many estimating windows, spread over the scene's; 12 unless given).
 use rad_estimator::Schedule;
 use rad_geometry::Scene;
 use rad_hemisphere::{Hemisphere, HemisphereConfig, Hierarchy};
+use rad_pipeline::CasterKind;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -33,10 +35,18 @@ fn main() {
         .build()
         .expect("a pool");
     let c = pool
-        .install(|| rad_repro::meshes::cost(&scene, &tree, &hemi, &picked))
+        .install(|| {
+            rad_repro::meshes::cost_by(
+                &scene,
+                CasterKind::fastest_for(&scene),
+                &tree,
+                &hemi,
+                &picked,
+            )
+        })
         .expect("timed");
     println!(
-        "{name} {nt}x{np}: {} estimates; exact {:.2} ms, improved {:.2} ms ({:.3}), faithful {:.2} ms ({:.3})",
-        c.hemispheres, c.median_ms_exact, c.median_ms_improved, c.ratio_improved, c.median_ms_faithful, c.ratio_faithful
+        "{name} {nt}x{np}: {} estimates; exact ({}) {:.2} ms, improved {:.2} ms ({:.3}), faithful {:.2} ms ({:.3})",
+        c.hemispheres, CasterKind::fastest_for(&scene).name(), c.median_ms_exact, c.median_ms_improved, c.ratio_improved, c.median_ms_faithful, c.ratio_faithful
     );
 }

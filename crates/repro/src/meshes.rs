@@ -7,11 +7,14 @@
 use crate::estimation::{estimation_of, l1, EstimationJob, SceneEstimation, Setting};
 use crate::stats::Summary;
 use crate::{one_thread, Error};
+use rad_accel::VoxelGrid;
 use rad_estimator::{Estimator, Schedule, SourceHemisphere};
 use rad_geometry::scenes::{blob_room, loft_fine_triangles, loft_patches, loft_triangles};
 use rad_geometry::{Scene, SceneDesc};
-use rad_hemisphere::{Caster, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, Row};
-use rad_pipeline::{default_estimator, rows_streamed, CasterKind, Mode, RowMethod};
+use rad_hemisphere::{
+    Caster, FacetScan, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, Row, Scan,
+};
+use rad_pipeline::{default_estimator, default_grid, rows_streamed, CasterKind, Mode, RowMethod};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -155,7 +158,7 @@ fn scene_section(
     let timed: Vec<_> = (0..k)
         .map(|i| estimating[i * estimating.len() / k].clone())
         .collect();
-    let cost = one_thread()?.install(|| cost(scene, &tree, &hemi, &timed))?;
+    let cost = one_thread()?.install(|| cost_by(scene, best, &tree, &hemi, &timed))?;
     progress(2, 3);
     let table1 = table1(scene, &hemi, best)?;
     progress(3, 3);
@@ -174,6 +177,28 @@ fn scene_section(
         cost,
         table1,
     })
+}
+
+/// [`cost`] through the caster `kind` names (`tree`, the scene's hierarchy, where it
+/// names the hierarchy).
+pub fn cost_by(
+    scene: &Scene,
+    kind: CasterKind,
+    tree: &Hierarchy,
+    hemi: &Hemisphere,
+    windows: &[rad_estimator::Window],
+) -> Result<Cost, Error> {
+    match kind {
+        CasterKind::Scan => cost(scene, &Scan, hemi, windows),
+        CasterKind::Grid => cost(
+            scene,
+            &VoxelGrid::build(scene, &default_grid())?,
+            hemi,
+            windows,
+        ),
+        CasterKind::Hierarchy => cost(scene, tree, hemi, windows),
+        CasterKind::Facets => cost(scene, &FacetScan::new(scene), hemi, windows),
+    }
 }
 
 /// The median thread time of an exact hemisphere (through `caster`) and of each mode's
