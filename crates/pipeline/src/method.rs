@@ -104,8 +104,9 @@ impl RowMethod {
     /// 1.49 (85 % of its patches estimated), into 115,200 triangles 1.87 (87 %); not on
     /// 14,400 one-patch polygons (0.98, 85 %), nor on a curved 21,808-triangle mesh
     /// (0.93: 6 % estimated). With the facet scan as the tessellated lofts' caster the
-    /// gain fell to 1.16 and 1.02 at 2fef7f3, 0.99 and 1.11 at 1708b90 (README, "Estimation on meshes"). Returns the method
-    /// and the share estimated (0 where not counted).
+    /// gain fell to 1.16 and 1.02 at 2fef7f3, 0.99 and 1.11 at 1708b90 (README,
+    /// "Estimation on meshes"). Returns the method and the share estimated (0 where not
+    /// counted).
     pub fn auto_for(scene: &Scene) -> Result<(RowMethod, f64), Error> {
         let caster = CasterKind::fastest_for(scene);
         let n = scene.patches().len();

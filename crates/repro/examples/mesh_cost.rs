@@ -34,19 +34,12 @@ fn main() {
         .num_threads(1)
         .build()
         .expect("a pool");
+    let kind = CasterKind::fastest_for(&scene);
     let c = pool
-        .install(|| {
-            rad_repro::meshes::cost_by(
-                &scene,
-                CasterKind::fastest_for(&scene),
-                &tree,
-                &hemi,
-                &picked,
-            )
-        })
+        .install(|| rad_repro::meshes::cost_by(&scene, kind, &tree, &hemi, &picked))
         .expect("timed");
     println!(
         "{name} {nt}x{np}: {} estimates; exact ({}) {:.2} ms, improved {:.2} ms ({:.3}), faithful {:.2} ms ({:.3})",
-        c.hemispheres, CasterKind::fastest_for(&scene).name(), c.median_ms_exact, c.median_ms_improved, c.ratio_improved, c.median_ms_faithful, c.ratio_faithful
+        c.hemispheres, kind.name(), c.median_ms_exact, c.median_ms_improved, c.ratio_improved, c.median_ms_faithful, c.ratio_faithful
     );
 }
