@@ -19,7 +19,7 @@ import sys
 
 import numpy as np
 
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+from pathtrace import LUMINANCE, read_polygons
 
 
 def reference(paths):
@@ -38,13 +38,8 @@ def reference(paths):
 
 
 def polygons(path):
-    d = json.load(open(path))
-    mats = {m["name"]: m for m in d["materials"]}
-    shared = np.array(d.get("vertices", []), float)
-    vs = [np.array(p["vertices"], float) if "vertices" in p else shared[p["indices"]]
-          for p in d["polygons"]]
-    return d, vs, \
-        [np.array(mats[p["material"]]["reflectance"], float) for p in d["polygons"]]
+    d, vs, rho, _ = read_polygons(path)
+    return d, vs, rho
 
 
 def patches(scene_path, solution_path):

@@ -17,6 +17,7 @@ error of that, the samples and the area. The same arguments give the same file.
 """
 
 import json
+import os
 import sys
 import time
 
@@ -30,24 +31,31 @@ MIN_SAMPLES = 16 * BATCH
 MAX_SAMPLES = 4_000_000
 
 
+def read_polygons(path):
+    """A coherad JSON scene's polygons: (the document, each polygon's vertices as an
+    array, reflectances, emissions), vertices given inline or by "indices" into the
+    document's shared "vertices"."""
+    d = json.load(open(path))
+    mats = {m["name"]: m for m in d["materials"]}
+    shared = np.array(d.get("vertices", []), dtype=np.float64)
+    vs = [np.array(p["vertices"], dtype=np.float64) if "vertices" in p
+          else shared[p["indices"]] for p in d["polygons"]]
+    rho = np.array([mats[p["material"]]["reflectance"] for p in d["polygons"]], float)
+    emit = np.array([mats[p["material"]]["emission"] for p in d["polygons"]], float)
+    return d, vs, rho, emit
+
+
 class Scene:
     """A JSON scene's polygons as Embree triangles, with what the walks read."""
 
     def __init__(self, path):
-        d = json.load(open(path))
-        mats = {m["name"]: m for m in d["materials"]}
+        d, vs, self.rho, self.emit = read_polygons(path)
         tris, owner, tri_area = [], [], []
-        n = len(d["polygons"])
+        n = len(vs)
         self.normal, self.area = np.zeros((n, 3)), np.zeros(n)
-        self.rho, self.emit = np.zeros((n, 3)), np.zeros((n, 3))
-        shared = np.array(d.get("vertices", []), dtype=np.float64)
-        for k, p in enumerate(d["polygons"]):
+        for k, (p, v) in enumerate(zip(d["polygons"], vs)):
             if p.get("two_sided"):
                 raise SystemExit(f"polygon {k}: two-sided polygons are not handled here")
-            v = (np.array(p["vertices"], dtype=np.float64) if "vertices" in p
-                 else shared[p["indices"]])
-            m = mats[p["material"]]
-            self.rho[k], self.emit[k] = m["reflectance"], m["emission"]
             # coherad's normal: e_u x e_v, u along v0 -> v1, v along v0 -> last.
             nn = np.cross(v[1] - v[0], v[-1] - v[0])
             self.normal[k] = nn / np.linalg.norm(nn)
@@ -59,6 +67,9 @@ class Scene:
         self.tris = np.array(tris, dtype=np.float32)
         self.owner, self.tri_area = np.array(owner), np.array(tri_area)
         self.tri_of = [np.nonzero(self.owner == k)[0] for k in range(n)]
+        # Each polygon's triangles by area, for its sample points.
+        self.tri_cdf = [np.cumsum(self.tri_area[t]) / self.tri_area[t].sum()
+                        for t in self.tri_of]
         self.eps = 1e-6 * float(np.abs(self.tris).max())
         self.embree = rtcs.EmbreeScene()
         TriangleMesh(self.embree, self.tris)
@@ -133,9 +144,9 @@ class Walks:
     def samples(self, k, m):
         """m radiosity samples (RGB) at points drawn uniformly on polygon k."""
         s = self.s
-        ta = s.tri_area[s.tri_of[k]]
-        x = self.points_on(s.tri_of[k][np.searchsorted(np.cumsum(ta) / ta.sum(),
-                                                        self.rng.random(m))])
+        pick = np.searchsorted(s.tri_cdf[k], self.rng.random(m))
+        # (The cumulative sum may end an ulp below 1.)
+        x = self.points_on(s.tri_of[k][np.minimum(pick, len(s.tri_of[k]) - 1)])
         nx = np.repeat(s.normal[k][None], m, axis=0)
         value = np.repeat(s.emit[k][None], m, axis=0)
         thr = np.repeat(s.rho[k][None], m, axis=0)
@@ -220,7 +231,6 @@ def main():
     result = trace_polygons(path, target, seed, first, last, progress)
     tmp = out + ".part"
     json.dump(result, open(tmp, "w"))
-    import os
     os.replace(tmp, out)
 
 

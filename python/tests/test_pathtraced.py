@@ -74,10 +74,7 @@ def test_the_solve_agrees_with_a_path_tracer_polygon_by_polygon(tmp_path):
     # Measured: at most 1.0 % (the floor), the reference's standard errors under 0.4 %.
     assert rel.max() < 0.02, rel
     # The reference conserves energy: what the surfaces absorb is what the lamp emits.
-    d = json.loads(scene.read_text())
-    mats = {m["name"]: m for m in d["materials"]}
-    rho = np.array([mats[p["material"]]["reflectance"] for p in d["polygons"]])
-    emit = np.array([mats[p["material"]]["emission"] for p in d["polygons"]])
+    _, _, rho, emit = pathtrace.read_polygons(scene)
     area = np.array(ref["area"])[:, None]
     rgb = np.array(ref["radiosity"])
     absorbed = (area * (rgb - emit) * (1 - rho) / rho).sum(axis=0)
