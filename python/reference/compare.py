@@ -19,7 +19,7 @@ import sys
 
 import numpy as np
 
-from pathtrace import LUMINANCE, read_polygons
+from pathtrace import LUMINANCE, normal_of, read_polygons
 
 
 def reference(paths):
@@ -43,53 +43,51 @@ def polygons(path):
 
 
 def patches(scene_path, solution_path):
-    """Centre, area and shown luminance of every patch, in coherad's patch order."""
+    """Centre, normal, area and shown luminance of every patch, in coherad's patch
+    order."""
     d, vs, rhos = polygons(scene_path)
     sol = json.load(open(solution_path))
     b = np.array(sol["radiosity"], float)
     ambient = np.array(sol.get("ambient", [0, 0, 0]), float)
-    centre, area, rho = [], [], []
+    centre, normal, area, rho = [], [], [], []
     for k, (p, v, r) in enumerate(zip(d["polygons"], vs, rhos)):
         nu, nv = p.get("patches", [1, 1])
         e_u, e_v = v[1] - v[0], v[-1] - v[0]
         whole = np.linalg.norm(np.cross(e_u, e_v))
+        n = normal_of(v)
         if len(v) == 3 and nu == nv == 1:
             centre.append(v.mean(axis=0)), area.append(whole / 2), rho.append(r)
+            normal.append(n)
             continue
         if len(v) != 4 or not np.allclose(v[2], v[1] + e_v):
             raise SystemExit(f"{scene_path}: polygon {k} is not a parallelogram or a one-patch triangle")
         for j in range(nv):
             for i in range(nu):
                 centre.append(v[0] + (i + 0.5) / nu * e_u + (j + 0.5) / nv * e_v)
-                area.append(whole / (nu * nv)), rho.append(r)
+                area.append(whole / (nu * nv)), rho.append(r), normal.append(n)
     if len(centre) != len(b):
         raise SystemExit(f"{solution_path}: {len(b)} radiosities for {len(centre)} patches")
-    return np.array(centre), np.array(area), (b + np.array(rho) * ambient) @ LUMINANCE
+    shown = (b + np.array(rho) * ambient) @ LUMINANCE
+    return np.array(centre), np.array(normal), np.array(area), shown
 
 
-def homes(vs, centre):
-    """The polygon of vs holding each centre (same plane), or -1."""
+def homes(vs, centre, normal):
+    """The polygon of vs holding each centre (in its plane, strictly inside every edge,
+    facing the same way as the patch's `normal`), or -1. Any convex polygon."""
     out = np.full(len(centre), -1)
     scale = max(np.abs(v).max() for v in vs)
     for k, v in enumerate(vs):
-        e_u, e_v = v[1] - v[0], v[-1] - v[0]
-        n = np.cross(e_u, e_v)
-        n /= np.linalg.norm(n)
-        d = centre - v[0]
-        g = np.array([[e_u @ e_u, e_u @ e_v], [e_u @ e_v, e_v @ e_v]])
-        u, w = np.linalg.solve(g, np.stack([d @ e_u, d @ e_v]))
-        inside = (np.abs(d @ n) <= 1e-4 * scale) & (out < 0)
-        if len(v) == 3:
-            inside &= (u > 0) & (w > 0) & (u + w < 1)
-        else:
-            inside &= (u > 0) & (u < 1) & (w > 0) & (w < 1)
+        n = normal_of(v)
+        inside = (np.abs((centre - v[0]) @ n) <= 1e-4 * scale) & (normal @ n > 0) & (out < 0)
+        for a, b in zip(v, np.roll(v, -1, axis=0)):
+            inside &= np.cross(b - a, centre - a) @ n > 0
         out[inside] = k
     return out
 
 
 def means(scene, vs, solved, solution):
-    centre, area, lum = patches(solved, solution)
-    h = homes(vs, centre)
+    centre, normal, area, lum = patches(solved, solution)
+    h = homes(vs, centre, normal)
     if (h < 0).any():
         raise SystemExit(f"{solved}: {(h < 0).sum()} patches lie on no polygon of {scene}")
     return np.bincount(h, area * lum, len(vs)) / np.bincount(h, area, len(vs))

@@ -34,15 +34,30 @@ MAX_SAMPLES = 4_000_000
 def read_polygons(path):
     """A coherad JSON scene's polygons: (the document, each polygon's vertices as an
     array, reflectances, emissions), vertices given inline or by "indices" into the
-    document's shared "vertices"."""
+    document's shared "vertices"; a material without "emission" emits nothing, as in
+    coherad. (An "obstruction" polygon is a surface like any other here, as in
+    `coherad solve`: the flag only keeps it out of view-factor matrices.)"""
     d = json.load(open(path))
     mats = {m["name"]: m for m in d["materials"]}
     shared = np.array(d.get("vertices", []), dtype=np.float64)
     vs = [np.array(p["vertices"], dtype=np.float64) if "vertices" in p
           else shared[p["indices"]] for p in d["polygons"]]
     rho = np.array([mats[p["material"]]["reflectance"] for p in d["polygons"]], float)
-    emit = np.array([mats[p["material"]]["emission"] for p in d["polygons"]], float)
+    emit = np.array([mats[p["material"]].get("emission", [0.0, 0.0, 0.0])
+                     for p in d["polygons"]], float)
     return d, vs, rho, emit
+
+
+def normal_of(v):
+    """A convex polygon's unit normal, facing as coherad's e_u x e_v (u along v0 -> v1,
+    v along v0 -> last): that cross product where its two edges are far from parallel,
+    else Newell's sum over every edge (coherad allows collinear vertices, which make
+    the cross product at v0 vanish), which faces the same way."""
+    e_u, e_v = v[1] - v[0], v[-1] - v[0]
+    n = np.cross(e_u, e_v)
+    if np.linalg.norm(n) <= 1e-6 * np.linalg.norm(e_u) * np.linalg.norm(e_v):
+        n = np.cross(v, np.roll(v, -1, axis=0)).sum(axis=0)
+    return n / np.linalg.norm(n)
 
 
 class Scene:
@@ -56,9 +71,7 @@ class Scene:
         for k, (p, v) in enumerate(zip(d["polygons"], vs)):
             if p.get("two_sided"):
                 raise SystemExit(f"polygon {k}: two-sided polygons are not handled here")
-            # coherad's normal: e_u x e_v, u along v0 -> v1, v along v0 -> last.
-            nn = np.cross(v[1] - v[0], v[-1] - v[0])
-            self.normal[k] = nn / np.linalg.norm(nn)
+            self.normal[k] = normal_of(v)
             for i in range(1, len(v) - 1):
                 t = np.array([v[0], v[i], v[i + 1]])
                 a = 0.5 * np.linalg.norm(np.cross(t[1] - t[0], t[2] - t[0]))
@@ -214,8 +227,7 @@ def trace_polygons(path, target, seed, first=0, last=None, progress=None):
     return {"scene": str(path), "target_relative_stderr": target, "seed": seed,
             "polygons": [first, last], "samples": count.tolist(),
             "radiosity": mean.tolist(), "luminance": lum.tolist(),
-            "luminance_stderr": stderr.tolist(), "area": scene.area.tolist(),
-            "seconds": time.time() - start}
+            "luminance_stderr": stderr.tolist(), "area": scene.area.tolist()}
 
 
 def main():

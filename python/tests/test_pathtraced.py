@@ -80,3 +80,29 @@ def test_the_solve_agrees_with_a_path_tracer_polygon_by_polygon(tmp_path):
     absorbed = (area * (rgb - emit) * (1 - rho) / rho).sum(axis=0)
     emitted = (area * emit).sum(axis=0)
     assert np.all(np.abs(absorbed / emitted - 1) < 0.01), absorbed / emitted
+
+
+def test_the_reference_reads_what_coherad_reads(tmp_path):
+    """A vertex where the outline runs straight on (coherad allows it) at v0, where the
+    cross product of the edges vanishes: the normal still faces as coherad's; a
+    material without "emission" emits nothing; compare.py homes a patch only on a
+    polygon of its plane that faces its way."""
+    import compare
+
+    square = np.array([[0.5, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 0]], float)
+    assert np.array_equal(pathtrace.normal_of(square), [0.0, 0.0, 1.0])
+    assert np.array_equal(pathtrace.normal_of(square[::-1]), [0.0, 0.0, -1.0])
+    quad = np.array([[0, 0, 0], [2, 0, 0], [2, 0, 3], [0, 0, 3]], float)
+    n = np.cross(quad[1] - quad[0], quad[-1] - quad[0])
+    assert np.array_equal(pathtrace.normal_of(quad), n / np.linalg.norm(n))
+
+    scene = tmp_path / "plain.json"
+    scene.write_text(json.dumps({
+        "materials": [{"name": "grey", "reflectance": [0.5, 0.5, 0.5]}],
+        "polygons": [{"material": "grey", "vertices": square.tolist()}]}))
+    _, vs, rho, emit = pathtrace.read_polygons(scene)
+    assert np.array_equal(emit, [[0.0, 0.0, 0.0]]) and np.array_equal(rho, [[0.5] * 3])
+
+    centre = np.array([[0.5, 0.5, 0.0], [0.5, 0.5, 0.0], [0.5, 0.5, 0.5]])
+    facing = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 0.0, 1.0]])
+    assert compare.homes(vs, centre, facing).tolist() == [0, -1, -1]
