@@ -33,7 +33,10 @@ pub use rad_solver::{Enclosure, SolveConfig, Solver};
 pub use rows::{rows, rows_streamed, rows_streamed_of, Rows, STREAM_CHUNK};
 pub(crate) use rows::{with_caster as rows_with_caster, CasterJob};
 pub use scene_file::SceneFile;
-pub use storage::{OutOfCoreStats, Progress, Storage, DEFAULT_MEMORY_LIMIT, MATRIX_FREE_BATCH};
+pub use storage::{
+    OutOfCoreStats, Progress, Storage, DEFAULT_MEMORY_LIMIT, MATRIX_FREE_BATCH,
+    MATRIX_FREE_OVERSHOOT,
+};
 
 use rad_accel::VoxelGridConfig;
 

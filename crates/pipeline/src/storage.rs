@@ -23,6 +23,14 @@ pub const DEFAULT_MEMORY_LIMIT: usize = 1536 << 20;
 /// Shooters taken at a time by matrix-free solving (their rows made in parallel).
 pub const MATRIX_FREE_BATCH: usize = 64;
 
+/// How far matrix-free and out-of-core shooting overshoot
+/// ([`rad_solver::MatrixFreeConfig::overshoot`]): on the loft at 180 × 720 (out of core,
+/// exact rows, against a solve to 1e-7), 1.2 took 65,280 shots to the default tolerance
+/// against 120,064 without overshooting, its radiosities nearer the converged ones
+/// (mean relative difference 5.4e-4 against 7.0e-4); 1.1, 1.3 and 1.4 took 83,840,
+/// 77,632 and 108,864.
+pub const MATRIX_FREE_OVERSHOOT: f64 = 1.2;
+
 /// Bytes a stored entry takes, all told (pairs at 16 bytes hold about 1.8 entries on the
 /// loft, 8.6 bytes an entry measured; 10 leaves room for less symmetric patterns).
 const STORED_BYTES_PER_ENTRY: f64 = 10.0;
@@ -303,6 +311,7 @@ pub(crate) fn solve_matrix_free(
             config: MatrixFreeConfig {
                 solve: opts.matrix_free,
                 batch: MATRIX_FREE_BATCH,
+                overshoot: MATRIX_FREE_OVERSHOOT,
                 cache_bytes,
             },
             progress,
@@ -364,6 +373,7 @@ pub(crate) fn solve_out_of_core(
     let config = MatrixFreeConfig {
         solve: opts.matrix_free,
         batch: MATRIX_FREE_BATCH,
+        overshoot: MATRIX_FREE_OVERSHOOT,
         cache_bytes: (opts.memory_limit as f64 - n as f64 * (BYTES_PER_PATCH + 12.0)).max(0.0)
             as usize,
     };

@@ -1,7 +1,9 @@
 //! Progressive refinement without a stored matrix: each shooter's row is asked for when
 //! it shoots (and kept while a byte budget allows), shooters taken in batches of the
 //! largest unshot power, so that rows can be made in parallel and the answer does not
-//! depend on the thread count.
+//! depend on the thread count. Each shot overshoots: it sends a little more than the
+//! patch's unshot radiosity, which the patch owes back later (over-relaxation; 46 %
+//! fewer shots on the loft).
 //!
 //! Each row is used both ways ("halves"): the patch gathers through half of it, then
 //! shoots through the other half by reciprocity. The system solved is then that of the
@@ -151,6 +153,17 @@ pub struct MatrixFreeConfig {
     pub batch: usize,
     /// Bytes of rows kept for shooters that shoot again.
     pub cache_bytes: usize,
+    /// Each shot sends this many times the patch's unshot radiosity, and the patch keeps
+    /// the negative remainder `(1 − overshoot) ΔB` to send back later (over-relaxation of
+    /// Southwell's iteration, Gortler et al. 1993; Feda and Purgathofer's overshooting):
+    /// light a patch will receive again is sent ahead of its return. 1 is classical
+    /// progressive refinement; from 1 up to (not including) 2. (On the loft at 180 × 720,
+    /// 1.2 shot 46 % fewer times than 1 to the same tolerance, and came nearer the
+    /// converged answer; see the README. Tested up to 1.5.) With 1, the answers are the
+    /// classical ones, though not always the bits of before overshooting: pending power
+    /// is now recomputed as a patch receives, not added to, so near-ties between
+    /// shooters may break otherwise (on the loft they did not: the same bits).
+    pub overshoot: f64,
 }
 
 /// What a matrix-free run did.
@@ -177,17 +190,18 @@ pub struct MatrixFreeStats {
 /// power conserved), without a matrix. First, unless `sums` are given, every row is
 /// asked for, in batches in patch order, and summed (kept in the cache while it has
 /// room, so that a cache that holds every row makes each row once). Then the batch of
-/// patches of largest pending power `A_i Σ_c (ΔB_{i,c} + W_{i,c})` (unshot radiosity and
+/// patches of largest pending power `A_i Σ_c |ΔB_{i,c} + W_{i,c}|` (unshot radiosity and
 /// the estimate of what its next gather brings; ties to the lower index) have their rows
 /// made by `rows` (those not cached; `rows` may take its rows' storage from the spare rows
 /// it is handed, rows shot and not kept, rather than allocate afresh). Then, one after
 /// the other in that order, each
 /// - gathers `½ Σ_j F_ij d_j S_j` (`S` the radiosity shot so far by each patch), adding to
 ///   its radiosity and unshot radiosity what this brings beyond its last gather;
-/// - shoots its unshot radiosity `ΔB_i`, giving each `j` in its row
-///   `ρ_j ½ F_ij d_i ΔB_i A_i / A_j` (the other half of `K_ji`); what `j` receives this
-///   way also estimates what `j`'s next gather of `i`'s shot will bring
-///   (`½ F_ji ≈ ½ F_ij A_i / A_j`), so it is added to `W_j` as well.
+/// - shoots `ω ΔB_i` (`ω` the config's `overshoot`, `ΔB_i` its unshot radiosity, which
+///   becomes `(1 − ω) ΔB_i`), giving each `j` in its row `ρ_j ½ F_ij d_i ω ΔB_i A_i / A_j`
+///   (the other half of `K_ji`); what `j` receives this way also estimates what `j`'s
+///   next gather of `i`'s shot will bring (`½ F_ji ≈ ½ F_ij A_i / A_j`), so it is added
+///   to `W_j` as well. Pending power is `A_i Σ_c |ΔB_{i,c} + W_{i,c}|`.
 ///
 /// Once the largest `ΔB + W` is `tolerance` of the largest radiosity, every patch that
 /// reflects gathers (and shoots) again, in patch order, in rounds interleaved with the
@@ -215,6 +229,14 @@ pub fn shoot_matrix_free<E: From<Error>>(
             what: "batch",
             value: 0.0,
             rule: "must be at least 1",
+        }
+        .into());
+    }
+    if !(1.0..2.0).contains(&config.overshoot) {
+        return Err(Error::BadConfig {
+            what: "overshoot",
+            value: config.overshoot,
+            rule: "must be at least 1 and below 2",
         }
         .into());
     }
@@ -294,7 +316,7 @@ pub fn shoot_matrix_free<E: From<Error>>(
             if verifying {
                 round_change = round_change.max(brought);
             }
-            state.shoot(i, row, &mut stats);
+            state.shoot(i, row, config.overshoot, &mut stats);
         }
         let keep = Keep {
             cache: &mut cache,
@@ -365,8 +387,18 @@ struct Shade {
     pending: [f64; 3],
     rho: [f64; 3],
     area: f64,
-    /// `A Σ_c (ΔB_c + W_c)`.
+    /// `A Σ_c |ΔB_c + W_c|` (an overshot patch's unshot radiosity is negative).
     power: f64,
+}
+
+impl Shade {
+    /// `A Σ_c |ΔB_c + W_c|`: what picks the next shooters.
+    fn pending_power(&self) -> f64 {
+        self.area
+            * (0..3)
+                .map(|c| (self.unshot[c] + self.pending[c]).abs())
+                .sum::<f64>()
+    }
 }
 
 /// Shooting's state: the patches, and what the gathers read and keep.
@@ -453,21 +485,25 @@ impl State {
             s.pending[c] = 0.0;
         }
         self.gathered[i] = h;
-        s.power = s.area * s.unshot.iter().sum::<f64>();
+        s.power = s.pending_power();
         brought
     }
 
-    /// Patch `i` shoots its unshot radiosity along its (checked) row, scaled by `d_i`:
-    /// half to be gathered, half given now to each `j` by reciprocity.
-    fn shoot(&mut self, i: usize, row: &ShotRow, stats: &mut MatrixFreeStats) {
+    /// Patch `i` shoots `overshoot` times its unshot radiosity along its (checked) row,
+    /// scaled by `d_i`: half to be gathered, half given now to each `j` by reciprocity;
+    /// it keeps what it sent beyond its unshot radiosity as negative unshot radiosity.
+    fn shoot(&mut self, i: usize, row: &ShotRow, overshoot: f64, stats: &mut MatrixFreeStats) {
         let (n, columns) = (self.shades.len(), &row.columns);
-        let unshot = self.shades[i].unshot;
+        // (`overshoot` 1 leaves exactly 0: x − 1·x.)
+        let sent: [f64; 3] = std::array::from_fn(|c| overshoot * self.shades[i].unshot[c]);
         let area_i = self.shades[i].area;
-        let shot: [f64; 3] = std::array::from_fn(|c| self.scale[i] * unshot[c]);
+        let shot: [f64; 3] = std::array::from_fn(|c| self.scale[i] * sent[c]);
         {
             let s = &mut self.shades[i];
-            s.unshot = [0.0; 3];
-            s.power = s.area * s.pending.iter().sum::<f64>();
+            for c in 0..3 {
+                s.unshot[c] -= sent[c];
+            }
+            s.power = s.pending_power();
         }
         for c in 0..3 {
             // (`d_j S_j`, as the gathers take it.)
@@ -496,7 +532,6 @@ impl State {
                 sum += f;
                 let p = &mut shades[j - base];
                 let kf = 0.5 * f * area_i / p.area;
-                let mut add_power = 0.0;
                 for c in 0..3 {
                     let arriving = kf * shot[c];
                     let d = p.rho[c] * arriving;
@@ -504,9 +539,8 @@ impl State {
                     p.b[c] += d;
                     p.unshot[c] += d;
                     p.pending[c] += d;
-                    add_power += d;
                 }
-                p.power += p.area * (2.0 * add_power);
+                p.power = p.pending_power();
             }
             (absorbed, sum)
         };
@@ -519,7 +553,7 @@ impl State {
         }
         for c in 0..3 {
             stats.escaped[c] +=
-                area_i * unshot[c] - 0.5 * self.column[i] * shot[c] - 0.5 * area_i * shot[c] * sum;
+                area_i * sent[c] - 0.5 * self.column[i] * shot[c] - 0.5 * area_i * shot[c] * sum;
         }
     }
 
@@ -539,7 +573,10 @@ impl State {
             .iter()
             .map(|s| std::array::from_fn(|c| s.unshot[c] + s.pending[c]))
             .collect();
-        let ambient = crate::solve::ambient_term(&surfaces.area, &surfaces.reflectance, &pending);
+        // (Overshooting can leave the patches owing light on the whole, a negative
+        // pending sum: the ambient term shows light still to come, so none then.)
+        let ambient = crate::solve::ambient_term(&surfaces.area, &surfaces.reflectance, &pending)
+            .map(|a| if a < 0.0 { 0.0 } else { a });
         let report = SolveReport {
             solver: Solver::Progressive,
             iterations: stats.shots,
@@ -597,7 +634,7 @@ impl Sweep {
         for p in shades {
             for c in 0..3 {
                 s.max_b = s.max_b.max(p.b[c]);
-                s.max_pending = s.max_pending.max(p.unshot[c] + p.pending[c]);
+                s.max_pending = s.max_pending.max((p.unshot[c] + p.pending[c]).abs());
             }
             s.power += p.power;
         }

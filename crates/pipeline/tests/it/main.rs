@@ -231,6 +231,11 @@ fn matrix_free_agrees_with_the_stored_solve_and_not_the_threads() {
     assert_eq!(a.solution.radiosity, b.solution.radiosity);
     assert!(a.solution.report.converged);
     assert!(a.balance.relative_imbalance < 1e-9, "{:?}", a.balance);
+    let ambient = a.solution.ambient;
+    assert!(
+        ambient.iter().all(|x| x.is_finite() && *x >= 0.0),
+        "{ambient:?}"
+    );
     // The images agree with the stored solve's.
     let view = View::of_scene(&scene.scene, 160, 120).unwrap();
     let config = RenderConfig {
@@ -288,6 +293,7 @@ fn out_of_core_is_matrix_free_shooting_to_the_bit_and_leaves_nothing() {
     let config = rad_solver::MatrixFreeConfig {
         solve: SolveOptions::default().matrix_free,
         batch: rad_pipeline::MATRIX_FREE_BATCH,
+        overshoot: rad_pipeline::MATRIX_FREE_OVERSHOOT,
         cache_bytes: 0,
     };
     let mut shot_rows = |ids: &[u32],

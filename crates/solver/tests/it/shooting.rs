@@ -32,7 +32,17 @@ fn matrix_free_shooting_solves_the_system_and_conserves_energy() {
         .flatten()
         .fold(0.0f64, |m, v| m.max(*v));
     let mut answers = Vec::new();
-    for (batch, cache_bytes) in [(1, 0), (16, 0), (16, usize::MAX)] {
+    // (Classical shooting, one at a time and in batches, the cache empty and whole;
+    // then overshooting.)
+    let runs = [
+        (1, 0, 1.0),
+        (16, 0, 1.0),
+        (16, usize::MAX, 1.0),
+        (16, 0, 1.5),
+        (16, usize::MAX, 1.5),
+        (1, 0, 1.2),
+    ];
+    for (batch, cache_bytes, overshoot) in runs {
         let mut asked = 0;
         let (mut last, mut summed) = ((0, 1.0), 0);
         let (sol, stats) = shoot_matrix_free::<Error>(
@@ -41,6 +51,7 @@ fn matrix_free_shooting_solves_the_system_and_conserves_energy() {
                 solve: cfg,
                 batch,
                 cache_bytes,
+                overshoot,
             },
             None,
             &mut |ids, _| {
@@ -59,6 +70,9 @@ fn matrix_free_shooting_solves_the_system_and_conserves_energy() {
         assert_eq!(last.0, stats.shots);
         assert!(last.1 < 1e-8, "{last:?}");
         assert!(stats.relative_imbalance < 1e-12, "{stats:?}");
+        // (The light still to come, never negative, even where overshooting leaves the
+        // patches owing some: what a solution file may hold.)
+        assert!(sol.ambient.iter().all(|a| *a >= 0.0), "{:?}", sol.ambient);
         if cache_bytes == usize::MAX {
             // Every row made once, by the pass that sums them.
             assert!(stats.rows_made == 120 && stats.cached_rows == 120);
@@ -71,10 +85,14 @@ fn matrix_free_shooting_solves_the_system_and_conserves_energy() {
                 assert!((a[c] - b[c]).abs() <= 1e-6 * scale, "{a:?} vs {b:?}");
             }
         }
-        answers.push((batch, sol.radiosity));
+        answers.push((stats.shots, sol.radiosity));
     }
     // The cache changes nothing: the same batch gives the same bits.
     assert_eq!(answers[1].1, answers[2].1);
+    assert_eq!(answers[3].1, answers[4].1);
+    // Overshooting changes the path, not the answer (within the tolerance, checked
+    // above against Gauss-Seidel).
+    assert_ne!(answers[1].1, answers[3].1);
 }
 
 #[test]
@@ -86,10 +104,30 @@ fn matrix_free_refuses_a_zero_batch_and_passes_source_errors_on() {
         solve: SolveConfig::default(),
         batch,
         cache_bytes: 0,
+        overshoot: 1.0,
     };
     let none = &mut |_: &[u32], _: &mut Vec<ShotRow>| Ok(vec![]);
     let err = shoot_matrix_free::<Error>(&s, &cfg(0), None, none, &mut |_| {});
     assert!(matches!(err, Err(Error::BadConfig { what: "batch", .. })));
+    for overshoot in [0.9, 2.0, f64::NAN, f64::INFINITY] {
+        let bad = MatrixFreeConfig {
+            overshoot,
+            ..cfg(4)
+        };
+        let err = shoot_matrix_free::<Error>(&s, &bad, None, none, &mut |_| {});
+        let e = err.err().unwrap();
+        assert!(
+            matches!(
+                e,
+                Error::BadConfig {
+                    what: "overshoot",
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("overshoot"), "{e}");
+    }
     let err = shoot_matrix_free::<Error>(
         &s,
         &cfg(4),
@@ -197,6 +235,8 @@ fn matrix_free_shooting_solves_the_average_of_rows_and_their_reciprocals() {
             solve: cfg,
             batch: 8,
             cache_bytes: usize::MAX,
+            // (The pipeline's default: overshooting solves the same system.)
+            overshoot: 1.2,
         },
         None,
         &mut |ids, _| Ok(ids.iter().map(|&i| row(i)).collect()),
