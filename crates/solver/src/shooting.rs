@@ -224,22 +224,7 @@ pub fn shoot_matrix_free<E: From<Error>>(
     let n = surfaces.area.len();
     surfaces.validate(n)?;
     config.solve.validate()?;
-    if config.batch == 0 {
-        return Err(Error::BadConfig {
-            what: "batch",
-            value: 0.0,
-            rule: "must be at least 1",
-        }
-        .into());
-    }
-    if !(1.0..2.0).contains(&config.overshoot) {
-        return Err(Error::BadConfig {
-            what: "overshoot",
-            value: config.overshoot,
-            rule: "must be at least 1 and below 2",
-        }
-        .into());
-    }
+    check_config(config)?;
     let (area, rho) = (&surfaces.area, &surfaces.reflectance);
     let mut stats = MatrixFreeStats::default();
     let mut cache: HashMap<PatchId, ShotRow> = HashMap::new();
@@ -338,6 +323,25 @@ pub fn shoot_matrix_free<E: From<Error>>(
     stats.cached_rows = cache.len();
     let tolerance = config.solve.tolerance;
     Ok(state.finish(surfaces, stats, measure, tolerance))
+}
+
+/// Refuses a batch of 0 and an overshoot outside [1, 2).
+fn check_config(config: &MatrixFreeConfig) -> Result<(), Error> {
+    if config.batch == 0 {
+        return Err(Error::BadConfig {
+            what: "batch",
+            value: 0.0,
+            rule: "must be at least 1",
+        });
+    }
+    if !(1.0..2.0).contains(&config.overshoot) {
+        return Err(Error::BadConfig {
+            what: "overshoot",
+            value: config.overshoot,
+            rule: "must be at least 1 and below 2",
+        });
+    }
+    Ok(())
 }
 
 /// Entries a part of a shot or a gather takes: a row is cut into parts of this many
