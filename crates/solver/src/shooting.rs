@@ -1,9 +1,9 @@
 //! Progressive refinement without a stored matrix: each shooter's row is asked for when
 //! it shoots (and kept while a byte budget allows), shooters taken in batches of the
-//! largest unshot power, so that rows can be made in parallel and the answer does not
-//! depend on the thread count. Each shot overshoots: it sends a little more than the
-//! patch's unshot radiosity, which the patch owes back later (over-relaxation; 46 %
-//! fewer shots on the loft).
+//! largest pending power (by size: an overshot patch's is negative), so that rows can be
+//! made in parallel and the answer does not depend on the thread count. Each shot
+//! overshoots: it sends a little more than the patch's unshot radiosity, which the patch
+//! owes back later (over-relaxation; 46 % fewer shots on the loft).
 //!
 //! Each row is used both ways ("halves"): the patch gathers through half of it, then
 //! shoots through the other half by reciprocity. The system solved is then that of the
@@ -145,8 +145,8 @@ pub enum ShootProgress {
 /// How matrix-free shooting runs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MatrixFreeConfig {
-    /// Stop once the largest unshot radiosity is at most `tolerance` times the largest
-    /// radiosity; `max_iterations` caps the shots.
+    /// Stop once the largest pending radiosity `|ΔB + W|` is at most `tolerance` times the
+    /// largest radiosity; `max_iterations` caps the shots.
     pub solve: SolveConfig,
     /// Shooters taken at a time (their rows made together). Fixed, so that the answer
     /// does not depend on the thread count; 1 is classical progressive refinement.
@@ -203,7 +203,7 @@ pub struct MatrixFreeStats {
 ///   next gather of `i`'s shot will bring (`½ F_ji ≈ ½ F_ij A_i / A_j`), so it is added
 ///   to `W_j` as well. Pending power is `A_i Σ_c |ΔB_{i,c} + W_{i,c}|`.
 ///
-/// Once the largest `ΔB + W` is `tolerance` of the largest radiosity, every patch that
+/// Once the largest `|ΔB + W|` is `tolerance` of the largest radiosity, every patch that
 /// reflects gathers (and shoots) again, in patch order, in rounds interleaved with the
 /// shooting they set off, until a round brings no patch more than `tolerance` of the
 /// largest radiosity: `W` misses what a patch sees that does not see it back.
@@ -396,12 +396,15 @@ struct Shade {
 }
 
 impl Shade {
+    /// `ΔB_c + W_c`: the radiosity of channel `c` still to be sent (negative when the
+    /// patch owes light after an overshot shot) or expected of its next gather.
+    fn outstanding(&self, c: usize) -> f64 {
+        self.unshot[c] + self.pending[c]
+    }
+
     /// `A Σ_c |ΔB_c + W_c|`: what picks the next shooters.
     fn pending_power(&self) -> f64 {
-        self.area
-            * (0..3)
-                .map(|c| (self.unshot[c] + self.pending[c]).abs())
-                .sum::<f64>()
+        self.area * (0..3).map(|c| self.outstanding(c).abs()).sum::<f64>()
     }
 }
 
@@ -575,7 +578,7 @@ impl State {
         let pending: Vec<[f64; 3]> = self
             .shades
             .iter()
-            .map(|s| std::array::from_fn(|c| s.unshot[c] + s.pending[c]))
+            .map(|s| std::array::from_fn(|c| s.outstanding(c)))
             .collect();
         // (Overshooting can leave the patches owing light on the whole, a negative
         // pending sum: the ambient term shows light still to come, so none then.)
@@ -602,7 +605,7 @@ impl State {
         let mut expected = [0.0f64; 3];
         for s in &self.shades {
             for c in 0..3 {
-                stats.unshot[c] += s.area * (s.unshot[c] + s.pending[c]);
+                stats.unshot[c] += s.area * s.outstanding(c);
                 expected[c] += s.area * s.pending[c];
             }
         }
@@ -638,7 +641,7 @@ impl Sweep {
         for p in shades {
             for c in 0..3 {
                 s.max_b = s.max_b.max(p.b[c]);
-                s.max_pending = s.max_pending.max((p.unshot[c] + p.pending[c]).abs());
+                s.max_pending = s.max_pending.max(p.outstanding(c).abs());
             }
             s.power += p.power;
         }
