@@ -67,9 +67,11 @@ pub fn rows(
     )
 }
 
-/// Patches a chunk of [`rows_streamed`] holds at least (whole polygons: no window within
-/// a polygon is split; a window across polygons is made whole for its first chunk, its
-/// other rows kept for theirs, so the rows are those of [`rows`]).
+/// Patches a chunk of [`rows_streamed`] holds (the last may hold fewer). A chunk may cut
+/// a polygon, and a window with it: the window is made whole for its first chunk, its
+/// other rows kept for theirs, so the rows are those of [`rows`]. (Not whole polygons: a
+/// polygon of 9,600 patches would make a chunk of 9,600 rows, and what a stream holds
+/// would then follow the largest polygon, not the memory limit.)
 pub const STREAM_CHUNK: usize = 512;
 
 /// Every patch's row by `method`, made chunk by chunk (each in parallel) and handed to
@@ -112,7 +114,7 @@ pub fn rows_streamed_of(
         fn run<C: Caster>(self, scene: &Scene, caster: &C) -> Result<EstimateStats, Error> {
             let mut stats = EstimateStats::default();
             let schedule = schedule_for(scene, self.method);
-            let chunks = chunks_of(scene, self.patches);
+            let chunks = chunks_of(self.patches.len());
             let sink = self.sink;
             let ahead = schedule
                 .as_ref()
@@ -260,6 +262,8 @@ impl Ahead {
             rows.push(row);
             sources.push(from);
         }
+        // Rows kept from earlier chunks were not counted as this chunk's windows ran.
+        progress(r.len());
         Ok(Rows {
             method,
             rows,
@@ -287,27 +291,18 @@ pub(crate) fn for_each_chunk<T: Send>(
     Ok(())
 }
 
-/// The patch ranges of [`rows_streamed`]'s chunks: whole polygons, each chunk at least
-/// [`STREAM_CHUNK`] patches but the last.
+/// The patch ranges of [`rows_streamed`]'s chunks: [`STREAM_CHUNK`] patches each but the
+/// last.
 pub(crate) fn stream_chunks(scene: &Scene) -> Vec<std::ops::Range<usize>> {
-    let all: Vec<PatchId> = (0..scene.patches().len() as PatchId).collect();
-    chunks_of(scene, &all)
+    chunks_of(scene.patches().len())
 }
 
-/// Ranges of `patches` holding whole polygons (of consecutive patches), each at least
-/// [`STREAM_CHUNK`] patches but the last.
-fn chunks_of(scene: &Scene, patches: &[PatchId]) -> Vec<std::ops::Range<usize>> {
-    let polygon = |k: usize| scene.patches()[patches[k] as usize].polygon;
-    let mut out = Vec::new();
-    let mut start = 0;
-    for e in 1..=patches.len() {
-        let polygon_ends = e == patches.len() || polygon(e) != polygon(e - 1);
-        if polygon_ends && (e - start >= STREAM_CHUNK || e == patches.len()) {
-            out.push(start..e);
-            start = e;
-        }
-    }
-    out
+/// Ranges of positions in a list of `n` patches, [`STREAM_CHUNK`] each but the last.
+fn chunks_of(n: usize) -> Vec<std::ops::Range<usize>> {
+    (0..n)
+        .step_by(STREAM_CHUNK)
+        .map(|a| a..(a + STREAM_CHUNK).min(n))
+        .collect()
 }
 
 /// Work to do with whichever caster a method names, built once, for the scene rows are

@@ -241,8 +241,9 @@ fn patch_row(surface: &[u32], row: &Row) -> (Vec<(u32, f64)>, f64) {
     (seen, blocked)
 }
 
-/// Every patch's row but obstructions' (averaged over `opts.origins`² origins), made in chunks of whole
-/// polygons in parallel through `opts.caster` and handed to `sink` in patch order.
+/// Every patch's row but obstructions' (averaged over `opts.origins`² origins), made in chunks of
+/// [`crate::STREAM_CHUNK`] patches in parallel through `opts.caster` and handed to `sink` in
+/// patch order.
 fn for_each_row(
     scene: &Scene,
     hemi: &Hemisphere,
@@ -385,7 +386,7 @@ fn write_bin(w: &mut dyn Write, vf: &ViewFactors, run: &ViewFactorRun) -> std::i
 }
 
 /// The view factors of `scene` at hemisphere `hemi` by `opts`; `progress(n)` gets the
-/// patches done so far. Rows are made in chunks of whole polygons, in parallel, and
+/// patches done so far. Rows are made in chunks of patches, in parallel, and
 /// gathered in patch order: the same bits whatever the thread count.
 pub fn view_factors(
     scene: &Scene,

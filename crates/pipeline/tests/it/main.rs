@@ -35,6 +35,12 @@ fn streamed_rows_are_the_rows_in_order() {
     let scene = loft();
     let n = scene.scene.patches().len();
     assert!(n > 4 * STREAM_CHUNK, "the loft streams in several chunks");
+    let mut per_polygon = vec![0usize; scene.scene.polygons().len()];
+    for p in scene.scene.patches() {
+        per_polygon[p.polygon as usize] += 1;
+    }
+    let largest = per_polygon.iter().max().copied().unwrap_or(0);
+    assert!(largest > STREAM_CHUNK, "a polygon of {largest} patches");
     let hemi = Hemisphere::new(HemisphereConfig::exact(6, 24)).unwrap();
     for method in [
         RowMethod::Exact {
@@ -58,6 +64,9 @@ fn streamed_rows_are_the_rows_in_order() {
             },
             &mut |made| {
                 chunks += 1;
+                // A chunk cuts a polygon larger than a chunk: what a stream holds
+                // follows the chunk, not the largest polygon.
+                assert!(made.rows.len() <= STREAM_CHUNK, "{} rows", made.rows.len());
                 streamed.extend(made.rows);
                 Ok(())
             },
