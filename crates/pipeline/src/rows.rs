@@ -76,9 +76,9 @@ pub const STREAM_CHUNK: usize = 512;
 
 /// Every patch's row by `method`, made chunk by chunk (each in parallel) and handed to
 /// `sink` in patch order as soon as the chunk is done, so that only two chunks are
-/// held at a time (one being made, one being taken; estimated rows of a mesh keep up to
-/// [`AHEAD_CHUNKS`] more, made with their window ahead of their chunk); the next chunk is made while
-/// `sink` takes the last. The rows, and the order, are those of [`rows`] over every
+/// held at a time (one being made, one being taken; estimated rows keep up to
+/// [`AHEAD_CHUNKS`] more, made with a window that a chunk cuts, ahead of their chunk); the
+/// next chunk is made while `sink` takes the last. The rows, and the order, are those of [`rows`] over every
 /// patch; `progress(n)` gets the rows done so far. Returns the run's counts.
 pub fn rows_streamed(
     scene: &Scene,
@@ -91,9 +91,9 @@ pub fn rows_streamed(
     rows_streamed_of(scene, hemi, method, &all, progress, sink)
 }
 
-/// [`rows_streamed`] over `patches` (in their order; a polygon's patches together, as
-/// a share of [`crate::share::shares`] keeps them): the rows of [`rows`] over `patches`,
-/// chunk by chunk.
+/// [`rows_streamed`] over `patches` (in their order, any order; a share of
+/// [`crate::share::shares`] lists whole polygons, which keeps windows together): the rows
+/// of [`rows`] over `patches`, chunk by chunk.
 pub fn rows_streamed_of(
     scene: &Scene,
     hemi: &Hemisphere,
@@ -167,8 +167,11 @@ pub fn rows_streamed_of(
 
 /// How far ahead (in chunks of [`STREAM_CHUNK`] patches of the list) a stream of
 /// estimated rows makes the rows of a window's other patches, kept until their chunk:
-/// a window of a mesh's polygons spans patches far apart in the list, and its centre is
-/// cast once for all of them within this reach (beyond it, again).
+/// a window of a mesh's polygons spans patches far apart in the list, a 3 × 3 window of
+/// a polygon three of its rows of patches (about `2 nu` positions), and its centre is
+/// cast once for all of them within this reach (beyond it, again: a polygon of over
+/// about 768 patches along its `u` side can have its windows' centres cast twice, the
+/// rows the same).
 pub const AHEAD_CHUNKS: usize = 4;
 
 /// A stream of estimated rows: the rows made ahead of their chunk, by patch.
