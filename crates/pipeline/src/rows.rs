@@ -78,8 +78,9 @@ pub const STREAM_CHUNK: usize = 512;
 /// `sink` in patch order as soon as the chunk is done, so that only two chunks are
 /// held at a time (one being made, one being taken; estimated rows keep up to
 /// [`AHEAD_CHUNKS`] more, made with a window that a chunk cuts, ahead of their chunk); the
-/// next chunk is made while `sink` takes the last. The rows, and the order, are those of [`rows`] over every
-/// patch; `progress(n)` gets the rows done so far. Returns the run's counts.
+/// next chunk is made while `sink` takes the last. The rows, and the order, are those of
+/// [`rows`] over every patch; `progress(n)` gets the rows done so far. Returns the run's
+/// counts.
 pub fn rows_streamed(
     scene: &Scene,
     hemi: &Hemisphere,
@@ -114,7 +115,7 @@ pub fn rows_streamed_of(
         fn run<C: Caster>(self, scene: &Scene, caster: &C) -> Result<EstimateStats, Error> {
             let mut stats = EstimateStats::default();
             let schedule = schedule_for(scene, self.method);
-            let chunks = chunks_of(self.patches.len());
+            let chunks = stream_chunks(self.patches.len());
             let sink = self.sink;
             let ahead = schedule
                 .as_ref()
@@ -294,14 +295,9 @@ pub(crate) fn for_each_chunk<T: Send>(
     Ok(())
 }
 
-/// The patch ranges of [`rows_streamed`]'s chunks: [`STREAM_CHUNK`] patches each but the
-/// last.
-pub(crate) fn stream_chunks(scene: &Scene) -> Vec<std::ops::Range<usize>> {
-    chunks_of(scene.patches().len())
-}
-
-/// Ranges of positions in a list of `n` patches, [`STREAM_CHUNK`] each but the last.
-fn chunks_of(n: usize) -> Vec<std::ops::Range<usize>> {
+/// The chunks of [`rows_streamed`] over a list of `n` patches: ranges of positions,
+/// [`STREAM_CHUNK`] each but the last.
+pub(crate) fn stream_chunks(n: usize) -> Vec<std::ops::Range<usize>> {
     (0..n)
         .step_by(STREAM_CHUNK)
         .map(|a| a..(a + STREAM_CHUNK).min(n))

@@ -241,9 +241,9 @@ fn patch_row(surface: &[u32], row: &Row) -> (Vec<(u32, f64)>, f64) {
     (seen, blocked)
 }
 
-/// Every patch's row but obstructions' (averaged over `opts.origins`² origins), made in chunks of
-/// [`crate::STREAM_CHUNK`] patches in parallel through `opts.caster` and handed to `sink` in
-/// patch order.
+/// Every patch's row but obstructions' (averaged over `opts.origins`² origins), made in
+/// chunks of [`crate::STREAM_CHUNK`] patches in parallel through `opts.caster` and handed
+/// to `sink` in patch order.
 fn for_each_row(
     scene: &Scene,
     hemi: &Hemisphere,
@@ -260,7 +260,7 @@ fn for_each_row(
     impl CasterJob for Job<'_, '_> {
         type Out = ();
         fn run<C: Caster>(self, scene: &Scene, caster: &C) -> Result<(), Error> {
-            let chunks = stream_chunks(scene);
+            let chunks = stream_chunks(scene.patches().len());
             let sink = self.sink;
             for_each_chunk(
                 &chunks,
