@@ -5,7 +5,7 @@
 //! guesses facets rather than triangles, so that a tessellated wall is guessed as the
 //! one polygon it was before it was cut.
 
-use crate::{Polygon, Scene};
+use crate::{EdgeNeighbours, Polygon};
 use glam::{DVec2, DVec3, Vec3};
 use rad_core::{prefetch, PolygonId, NO_POLYGON};
 
@@ -105,33 +105,19 @@ pub enum Located {
 }
 
 impl Facets {
-    /// The facets of `scene` (made from its [`crate::EdgeNeighbours`]), with margins for
-    /// guesses: twice the members' reach beyond their edges, and a hundredth of a grid
-    /// cell (a member's test may still accept a point [`Located::Clear`] in another by
-    /// its sharpest corner).
-    pub fn of(scene: &Scene) -> Facets {
-        Facets::made(scene, false)
-    }
-
-    /// [`Facets::of`] with margins for exact casting: past the members' edges by as far
-    /// as their tests reach at their sharpest corners (twice the reach over the sine of
-    /// the half-angle), and three hundredths of a grid cell for the rounding of points
-    /// seen at a slant (what a caster checks before it locates).
-    pub fn exact(scene: &Scene) -> Facets {
-        Facets::made(scene, true)
-    }
-
-    fn made(scene: &Scene, exact: bool) -> Facets {
-        let polygons = scene.polygons();
+    /// The facets of `polygons`, whose patch counts are `patch_count` and whose
+    /// neighbours across edges are `edges` (a scene's: [`Facets::of`], [`Facets::exact`]);
+    /// `exact`: the margins of exact casting.
+    pub(crate) fn made(
+        polygons: &[Polygon],
+        patch_count: &[u32],
+        edges: &EdgeNeighbours,
+        exact: bool,
+    ) -> Facets {
         let n = polygons.len();
         // Polygons of one patch (their patch grids are 1 × 1 and not empty) and of at
         // most four vertices may join others.
-        let mut patch_count = vec![0u32; n];
-        for p in scene.patches() {
-            patch_count[p.polygon as usize] += 1;
-        }
         let joins = |p: usize| patch_count[p] == 1 && polygons[p].vertices().len() <= 4;
-        let edges = scene.edge_neighbours();
         let mut facet_of = vec![u32::MAX; n];
         let mut out = Facets::default();
         out.overflow_start.push(0);

@@ -12,6 +12,9 @@
 use crate::Polygon;
 use glam::Vec3;
 
+/// Result of a ray–polygon intersection: `(t, u, v, front)`.
+pub type PolygonHit = (f32, f32, f32, bool);
+
 /// What the hit test reads of a polygon, packed in 64 bytes: the plane (`n·p = d`),
 /// the dual basis giving (u, v) (`u = p·du − du_off`), and the (u, v) bounds.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -113,6 +116,30 @@ impl OriginTerms {
 }
 
 impl Polygon {
+    /// Intersects the ray `o + t·d`, `0 < t < t_max`, with this polygon (the shared hit
+    /// test: [`Polygon::hit_from`] with [`Polygon::terms`] at `o`).
+    ///
+    /// On the front side, points within a few ulps of the scene's scale outside an edge
+    /// count as inside, so polygons that share an edge leave no crack for a ray to slip
+    /// through; on the back side the polygon shrinks instead (see [`Polygon::contains_uv_back`]).
+    #[inline]
+    pub fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<PolygonHit> {
+        self.hit_from(&self.terms_at(o), d, t_max)
+    }
+
+    /// Its terms for rays from `o` as every caster tests them: [`crate::PolygonTerms::at`],
+    /// with no hit at all from an origin a front-only polygon does not face
+    /// ([`Polygon::front_only`], [`OriginTerms::front_only`]).
+    #[inline]
+    pub fn terms_at(&self, o: Vec3) -> OriginTerms {
+        let terms = self.terms().at(o);
+        if self.front_only() {
+            terms.front_only(self.reach())
+        } else {
+            terms
+        }
+    }
+
     /// Its hit-test terms (see the module documentation).
     #[inline]
     pub fn terms(&self) -> PolygonTerms {
@@ -143,7 +170,7 @@ impl Polygon {
     /// The hit of the ray `o + t·d`, `0 < t < t_max`, given this polygon's terms for
     /// `o`: (t, u, v, front).
     #[inline]
-    pub fn hit_from(&self, h: &OriginTerms, d: Vec3, t_max: f32) -> Option<crate::PolygonHit> {
+    pub fn hit_from(&self, h: &OriginTerms, d: Vec3, t_max: f32) -> Option<PolygonHit> {
         let (t, u, v, denom) = h.along(d, t_max)?;
         self.accepts(denom, false, u, v)
             .then_some((t, u, v, denom < 0.0))
@@ -174,7 +201,7 @@ impl Shape {
         h: &OriginTerms,
         d: Vec3,
         t_max: f32,
-    ) -> Option<crate::PolygonHit> {
+    ) -> Option<PolygonHit> {
         let (t, u, v, denom) = h.along(d, t_max)?;
         self.accepts(poly, h, denom, u, v)
             .then_some((t, u, v, denom < 0.0))

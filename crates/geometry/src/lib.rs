@@ -16,11 +16,11 @@ mod triangulate;
 pub use adjacency::EdgeNeighbours;
 pub use error::{Error, PolygonProblem};
 pub use facets::{Facets, LocateScratch, Located, FACET_TILT};
-pub use hit_test::{OriginTerms, PolygonTerms, Shape, Triangle};
+pub use hit_test::{OriginTerms, PolygonHit, PolygonTerms, Shape, Triangle};
 pub use overlap::{NORMAL_TOLERANCE, OVERLAP_FRACTION, PLANE_TOLERANCE};
 pub use polygon::{reach_past_corners, vertices_problem};
 pub use polygon::{
-    Patch, Polygon, PolygonHit, MAX_CELLS_PER_POLYGON, MAX_COORDINATE, MIN_POLYGON_SIZE,
+    Patch, Polygon, MAX_CELLS_PER_POLYGON, MAX_COORDINATE, MIN_POLYGON_SIZE,
     MIN_POLYGON_SIZE_RELATIVE, PLANARITY_TOLERANCE,
 };
 pub use scene::{

@@ -102,9 +102,6 @@ pub(crate) struct Built {
     pub patches: Vec<Patch>,
 }
 
-/// Result of a ray–polygon intersection: `(t, u, v, front)`.
-pub type PolygonHit = (f32, f32, f32, bool);
-
 impl Polygon {
     /// Validates `vertices` and builds the polygon with an `nu × nv` patch texture whose
     /// patches are numbered from `first_patch`.
@@ -206,35 +203,12 @@ impl Polygon {
         Ok(Built { polygon, patches })
     }
 
-    /// Intersects the ray `o + t·d`, `0 < t < t_max`, with this polygon (the shared hit
-    /// test: [`Polygon::hit_from`] with [`Polygon::terms`] at `o`).
-    ///
-    /// On the front side, points within a few ulps of the scene's scale outside an edge
-    /// count as inside, so polygons that share an edge leave no crack for a ray to slip
-    /// through; on the back side the polygon shrinks instead (see [`Polygon::contains_uv_back`]).
-    #[inline]
-    pub fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<PolygonHit> {
-        self.hit_from(&self.terms_at(o), d, t_max)
-    }
-
-    /// Its terms for rays from `o` as every caster tests them: [`crate::PolygonTerms::at`],
-    /// with no hit at all from an origin a front-only polygon does not face
-    /// ([`Polygon::front_only`], [`crate::OriginTerms::front_only`]).
-    #[inline]
-    pub fn terms_at(&self, o: Vec3) -> crate::OriginTerms {
-        let terms = self.terms().at(o);
-        if self.front_only {
-            terms.front_only(self.reach())
-        } else {
-            terms
-        }
-    }
-
     /// Whether it is seen only from its front: a side of a two-sided polygon, whose
     /// other side is its reverse, coplanar, back to back. No ray meets it from behind,
     /// nor from an origin within its reach of its plane (so neither side is ever met
     /// from the other's patches, and a ray meeting the pair takes the side it faces,
     /// whatever the ids); from in front it is tested as any polygon.
+    #[inline]
     pub fn front_only(&self) -> bool {
         self.front_only
     }

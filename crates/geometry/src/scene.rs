@@ -1,6 +1,7 @@
 //! Scenes: validated polygons with their patches, materials and an optional camera.
 
 use crate::error::{Error, PolygonProblem};
+use crate::facets::Facets;
 use crate::hit_test::OriginTerms;
 use crate::polygon::{Patch, Polygon};
 use glam::{DVec3, Vec3};
@@ -683,4 +684,36 @@ fn check_patch_count(
         });
     }
     Ok(())
+}
+// A scene's facets are made here, from its polygons and their neighbours, so that the
+// facets themselves know nothing of scenes.
+impl Facets {
+    /// The facets of `scene` (made from its [`crate::EdgeNeighbours`]), with margins for
+    /// guesses: twice the members' reach beyond their edges, and a hundredth of a grid
+    /// cell (a member's test may still accept a point [`Located::Clear`] in another by
+    /// its sharpest corner).
+    pub fn of(scene: &Scene) -> Facets {
+        Facets::of_scene(scene, false)
+    }
+
+    /// [`Facets::of`] with margins for exact casting: past the members' edges by as far
+    /// as their tests reach at their sharpest corners (twice the reach over the sine of
+    /// the half-angle), and three hundredths of a grid cell for the rounding of points
+    /// seen at a slant (what a caster checks before it locates).
+    pub fn exact(scene: &Scene) -> Facets {
+        Facets::of_scene(scene, true)
+    }
+
+    fn of_scene(scene: &Scene, exact: bool) -> Facets {
+        let mut patch_count = vec![0u32; scene.polygons().len()];
+        for p in scene.patches() {
+            patch_count[p.polygon as usize] += 1;
+        }
+        Facets::made(
+            scene.polygons(),
+            &patch_count,
+            scene.edge_neighbours(),
+            exact,
+        )
+    }
 }

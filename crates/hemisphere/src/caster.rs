@@ -7,29 +7,10 @@
 //! and the same hits, to the bit: the same f32 test of each (ray, polygon) pair, the
 //! same culling and the same tie rule (the lower polygon id).
 
-use crate::{Hemisphere, ItemBuffer, ScanScratch};
+use crate::item_buffer::{ItemBuffer, Viewpoint};
+use crate::{Hemisphere, ScanScratch};
 use rad_core::{Hit, PatchId, PolygonId, Ray, RayCast, Vec3};
 use rad_geometry::Scene;
-
-/// Where a hemisphere stands: a point on a polygon (a patch's centre, or any point of
-/// its patch when rows are averaged over several origins); the hemisphere takes the
-/// polygon's frame, and its rays skip the polygon.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Viewpoint {
-    pub point: Vec3,
-    pub polygon: PolygonId,
-}
-
-impl Viewpoint {
-    /// The centre of `patch`, on its polygon.
-    pub fn of_patch(scene: &Scene, patch: PatchId) -> Viewpoint {
-        let p = &scene.patches()[patch as usize];
-        Viewpoint {
-            point: p.center,
-            polygon: p.polygon,
-        }
-    }
-}
 
 /// Fills exact item buffers of one scene's hemispheres, with per-thread scratch.
 ///

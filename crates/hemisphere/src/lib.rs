@@ -12,20 +12,22 @@ mod caster;
 mod cells;
 mod facet_scan;
 mod hierarchy;
+mod item_buffer;
 mod lambert;
 mod row;
 mod scan;
 
-pub use caster::{Caster, Scan, Viewpoint};
+pub use caster::{Caster, Scan};
 pub use cells::{delta_form_factors, DeltaRule, Hemisphere, HemisphereConfig, MAX_CELLS};
 pub use facet_scan::{
     FacetRays, FacetRaysScratch, FacetScan, FacetScanScratch, FacetScanStats, BIN_RAYS_PER_FACET,
     MIN_BIN_RAYS,
 };
 pub use hierarchy::{Hierarchy, HierarchyRays, HierarchyScratch, HierarchyStats, TILE};
+pub use item_buffer::{ItemBuffer, Viewpoint};
 pub use lambert::point_to_polygon_form_factor;
 pub use rad_core::{BACK, ESCAPED};
-pub use row::{compute_area_rows, compute_rows, ItemBuffer, Row, RowAccumulator, MAX_ORIGINS};
+pub use row::{compute_area_rows, compute_rows, Row, RowAccumulator, MAX_ORIGINS};
 pub use scan::{NearestHits, ScanScratch, ScanStats};
 
 /// Errors from setting up a hemisphere.

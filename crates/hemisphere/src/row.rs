@@ -1,17 +1,11 @@
-//! Item buffers (what each cell sees) and sparse form-factor rows.
+//! Sparse form-factor rows from item buffers, and rows of whole scenes through any
+//! caster.
 
-use crate::{Caster, Error, Hemisphere, Viewpoint};
+use crate::item_buffer::{ItemBuffer, Viewpoint};
+use crate::{Caster, Error, Hemisphere};
 use rad_core::{PatchId, RayCast, BACK, ESCAPED};
 use rad_geometry::Scene;
 use rayon::prelude::*;
-
-/// What each cell of one hemisphere sees: a patch id (or [`ESCAPED`], [`BACK`]) and the
-/// distance R to it (infinite for escaped rays).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct ItemBuffer {
-    pub patch: Vec<PatchId>,
-    pub dist: Vec<f32>,
-}
 
 /// One row of the form-factor matrix: `F_pj` for every patch j that p sees, sorted by j.
 #[derive(Clone, Debug, PartialEq)]

@@ -15,7 +15,8 @@
 //! are tested; they are conservative, and a polygon whose box could be unreliable (its
 //! plane passes within rounding of the origin) is tested on every cell.
 
-use crate::{Hemisphere, ItemBuffer, Viewpoint};
+use crate::item_buffer::{ItemBuffer, Viewpoint};
+use crate::Hemisphere;
 use glam::{DVec3, Vec3};
 use rad_core::{with_isa, Hit, Isa, PatchId, PolygonId, BACK, ESCAPED, NO_POLYGON};
 use rad_geometry::{OriginTerms, Polygon, Scene, Shape, Triangle, SEVERAL};

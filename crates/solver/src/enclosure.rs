@@ -3,7 +3,7 @@
 //! for a closed enclosure (what View3D's `encl=1` and EnergyPlus's view-factor fixing
 //! ask for), with the largest change each made and the distribution of the raw errors.
 
-use crate::matrix::balance;
+use crate::scaling::balance;
 use crate::Error;
 
 /// How a view-factor matrix is made to obey the enclosure rules.
@@ -142,7 +142,7 @@ impl SurfaceMatrix {
     /// finite and ≥ 0, areas finite and > 0.
     fn check(&self) -> Result<(), Error> {
         let n = self.n();
-        crate::matrix::check_areas(&self.area, n)?;
+        crate::surfaces::check_areas(&self.area, n)?;
         for (i, row) in self.rows.iter().enumerate() {
             let mut last = None;
             for &(j, f) in row {

@@ -14,24 +14,28 @@ mod matrix;
 mod operator;
 mod pairs;
 mod rowset;
+mod scaling;
 mod shooting;
 mod solve;
+mod surfaces;
 
 pub use enclosure::{
     Enclosure, EnclosureErrors, EnclosureReport, ErrorQuantiles, SurfaceMatrix, LEAK_TOLERANCE,
     MAX_SCRIPT_F,
 };
-pub use matrix::{reciprocal_scaling, FormFactors, Reciprocity};
+pub use matrix::FormFactors;
 pub use operator::Operator;
 pub use pairs::{median_bin, PairBuilder, PairMatrix};
 pub use rowset::RowSet;
+pub use scaling::{reciprocal_scaling, Reciprocity};
 pub use shooting::{
     shoot_matrix_free, MatrixFreeConfig, MatrixFreeStats, RowSums, ShootProgress, ShotRow,
 };
 pub use solve::{
     energy_balance, energy_balance_from, gauss_seidel, jacobi, jacobi_with, progressive, residual,
-    residual_from, EnergyBalance, Solution, SolveConfig, SolveReport, Solver, Surfaces,
+    residual_from, EnergyBalance, Solution, SolveConfig, SolveReport, Solver,
 };
+pub use surfaces::Surfaces;
 
 use rad_core::PatchId;
 

@@ -1,6 +1,6 @@
 //! What the solvers need of a form-factor matrix, whatever its storage.
 
-use crate::solve::Surfaces;
+use crate::surfaces::Surfaces;
 use rad_core::PatchId;
 
 /// A square form-factor matrix as the solvers use it: [`crate::FormFactors`] (rows as

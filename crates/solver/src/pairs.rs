@@ -3,10 +3,11 @@
 //! made (the rows themselves need not be kept), and its reciprocal scaling, which shares
 //! the pattern and stores one value a pair.
 
-use crate::matrix::{balance, check_areas, merge_row};
+use crate::matrix::{merge_row, FormFactors};
 use crate::operator::{add_scaled, update, Operator};
-use crate::solve::Surfaces;
-use crate::{Error, FormFactors, Reciprocity};
+use crate::scaling::{balance, Reciprocity};
+use crate::surfaces::{check_areas, Surfaces};
+use crate::Error;
 use rad_core::PatchId;
 use rayon::prelude::*;
 use std::sync::{Arc, OnceLock};
@@ -264,6 +265,31 @@ impl PairBuilder {
         for r in 0..=self.n {
             self.row_start[r] += before[r];
         }
+    }
+}
+
+// (`FormFactors::reciprocal` is made through the pair storage, so it lives here:
+// the CSR matrix knows nothing of pairs.)
+impl FormFactors {
+    /// The exactly reciprocal matrix closest to this one that keeps each row's sum.
+    ///
+    /// `G = (A_i F_ij + A_j F_ji) / 2` is symmetric; a symmetric diagonal scaling
+    /// `x_i G_ij x_j` (found by Newton's method with conjugate-gradient steps on
+    /// `x ∘ (G x) = t`, `t_i = A_i Σ_j F_ij`) makes its rows sum to `t_i` while keeping
+    /// it symmetric. Then `F̃_ij = x_i G_ij x_j / A_i` satisfies
+    /// `A_i F̃_ij = A_j F̃_ji` exactly and `Σ_j F̃_ij = Σ_j F_ij` to `tolerance`: in a
+    /// closed scene rows still sum to 1, and the solvers conserve energy exactly.
+    ///
+    /// `area` has one positive, finite area per patch.
+    pub fn reciprocal(
+        &self,
+        area: &[f64],
+        tolerance: f64,
+        max_iterations: usize,
+    ) -> Result<(FormFactors, Reciprocity), Error> {
+        let (m, report) =
+            PairMatrix::from_form_factors(self).reciprocal(area, tolerance, max_iterations)?;
+        Ok((m.to_form_factors(), report))
     }
 }
 

@@ -23,7 +23,8 @@
 //! written).
 
 use crate::operator::add_scaled;
-use crate::solve::{SolveConfig, SolveReport, Solver, Surfaces};
+use crate::solve::{SolveConfig, SolveReport, Solver};
+use crate::surfaces::Surfaces;
 use crate::{Error, Solution};
 use rad_core::PatchId;
 use std::collections::HashMap;

@@ -1,59 +1,9 @@
 //! Gauss-Seidel gathering, progressive shooting, the residual and the energy balance.
 
-use crate::matrix::check_areas;
+use crate::surfaces::Surfaces;
 use crate::Error;
 use crate::Operator;
 use rad_core::PatchId;
-
-/// What the solvers need to know of each patch: area, emission (radiosity units) and
-/// reflectance, per RGB channel.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Surfaces {
-    pub area: Vec<f64>,
-    pub emission: Vec<[f64; 3]>,
-    pub reflectance: Vec<[f64; 3]>,
-}
-
-impl Surfaces {
-    /// Checks the lengths against `n` and the values: areas finite and > 0, emission
-    /// finite and >= 0, reflectance in [0, 1).
-    pub fn validate(&self, n: usize) -> Result<(), Error> {
-        check_areas(&self.area, n)?;
-        for (what, len) in [
-            ("emissions", self.emission.len()),
-            ("reflectances", self.reflectance.len()),
-        ] {
-            if len != n {
-                return Err(Error::LengthMismatch {
-                    what,
-                    len,
-                    n_patches: n,
-                });
-            }
-        }
-        for i in 0..n {
-            let e = self.emission[i];
-            if !e.iter().all(|c| c.is_finite() && *c >= 0.0) {
-                return Err(Error::BadSurface {
-                    patch: i as PatchId,
-                    what: "emission",
-                    value: e,
-                    rule: "each channel finite and >= 0",
-                });
-            }
-            let r = self.reflectance[i];
-            if !r.iter().all(|c| c.is_finite() && (0.0..1.0).contains(c)) {
-                return Err(Error::BadSurface {
-                    patch: i as PatchId,
-                    what: "reflectance",
-                    value: r,
-                    rule: "each channel in [0, 1)",
-                });
-            }
-        }
-        Ok(())
-    }
-}
 
 /// Which iteration.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -271,7 +221,7 @@ pub fn jacobi_with<E: From<Error>>(
 
 /// Progressive refinement: repeatedly the patch `i` of largest unshot power
 /// `A_i Σ_c ΔB_{i,c}` shoots, giving each `j` in its row `ρ_j F_ij ΔB_i A_i / A_j`
-/// (that is `ρ_j F_ji ΔB_i` by reciprocity: run it on [`FormFactors::reciprocal`]'s
+/// (that is `ρ_j F_ji ΔB_i` by reciprocity: run it on [`crate::FormFactors::reciprocal`]'s
 /// matrix; on rows that are not reciprocal it converges to a slightly different system
 /// and its residual levels off near their reciprocity error). Stops when the largest
 /// unshot radiosity is within tolerance of the largest radiosity and then the true
