@@ -3,7 +3,6 @@
 //! [`RowMethod`], the reciprocal matrix and its solve, solution files written and read
 //! back, images written. It computes and writes; it never prints.
 
-mod by_rows;
 pub mod export;
 pub mod images;
 pub mod matrix_file;
@@ -15,7 +14,6 @@ mod rows;
 mod scene_file;
 pub mod share;
 pub mod solve;
-mod storage;
 pub mod viewfactors;
 
 pub use method::{CasterKind, RowMethod};
@@ -33,7 +31,7 @@ pub use rad_solver::{Enclosure, SolveConfig, Solver};
 pub use rows::{rows, rows_streamed, rows_streamed_of, Rows, STREAM_CHUNK};
 pub(crate) use rows::{with_caster as rows_with_caster, CasterJob};
 pub use scene_file::SceneFile;
-pub use storage::{
+pub use solve::{
     OutOfCoreStats, Progress, Storage, DEFAULT_MEMORY_LIMIT, MATRIX_FREE_BATCH,
     MATRIX_FREE_OVERSHOOT,
 };
