@@ -1,6 +1,8 @@
 //! House rules checked as a test: `//!` headers, no glob re-exports, no
 //! `should_panic` or `ignore`, and the one-way arrows between crates (STYLE.md).
 
+mod cycles;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
