@@ -8,11 +8,12 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
-use rad_pipeline::solve::{settle_auto, solve_scene, SolveOptions};
-use rad_pipeline::viewfactors::{count_surfaces, view_factors, Grouping, ViewFactorOptions};
+use rad_pipeline::solve::solve_scene;
+use rad_pipeline::viewfactors::{view_factors, Grouping};
 use rad_pipeline::{
-    CasterKind, Enclosure, Hemisphere, HemisphereConfig, LoadOptions, Mode, Rgb, RowMethod,
-    SceneFile, Solver,
+    pick_method, reflectance_of, settle_method, CasterKind, Enclosure, Hemisphere,
+    HemisphereConfig, LoadConfig, MethodChoice, PickedMethod, SceneFile, SolveRequest, Solver,
+    ViewFactorRequest,
 };
 use std::path::PathBuf;
 
@@ -65,38 +66,16 @@ fn bytes_of<T: Copy, const N: usize>(py: Python<'_>, v: &[T], to: fn(T) -> [u8; 
     PyBytes::new(py, &out).unbind()
 }
 
-/// The row method of `method` ("exact", "estimated", "estimated/faithful",
-/// "estimated/improved", or "auto": `RowMethod::auto_for`, `coherad solve`'s default)
-/// through `caster` (default: the fastest for the scene).
-fn row_method(scene: &SceneFile, method: &str, caster: Option<&str>) -> PyResult<RowMethod> {
-    let caster = match caster {
-        Some(c) => c.parse::<CasterKind>().map_err(fail)?,
-        None => CasterKind::fastest_for(&scene.scene),
-    };
-    match method {
-        "auto" => {
-            let (picked, _) = RowMethod::auto_for(&scene.scene).map_err(fail)?;
-            Ok(match picked {
-                RowMethod::Estimated { mode, .. } => RowMethod::Estimated {
-                    mode,
-                    centres: caster,
-                },
-                RowMethod::Exact { .. } => RowMethod::Exact { caster },
-            })
-        }
-        "exact" => Ok(RowMethod::Exact { caster }),
-        "estimated" | "estimated/improved" => Ok(RowMethod::Estimated {
-            mode: Mode::Improved,
-            centres: caster,
-        }),
-        "estimated/faithful" => Ok(RowMethod::Estimated {
-            mode: Mode::Faithful,
-            centres: caster,
-        }),
-        _ => Err(fail(format!(
-            "method {method:?}: expected \"auto\", \"exact\", \"estimated\", \"estimated/faithful\" or \"estimated/improved\""
-        ))),
-    }
+/// The row method of `method` ("auto", `coherad solve`'s default, "exact",
+/// "estimated", "estimated/faithful" or "estimated/improved") through `caster`
+/// (default: the fastest for the scene), as the binary picks it.
+fn row_method(scene: &SceneFile, method: &str, caster: Option<&str>) -> PyResult<PickedMethod> {
+    let caster = caster
+        .map(str::parse::<CasterKind>)
+        .transpose()
+        .map_err(fail)?;
+    let choice = method.parse::<MethodChoice>().map_err(fail)?;
+    pick_method(scene, choice, caster).map_err(fail)
 }
 
 fn hemisphere((nt, np): (u32, u32)) -> PyResult<Hemisphere> {
@@ -179,7 +158,7 @@ impl Scene {
         Py<PyBytes>,
         Py<PyBytes>,
     )> {
-        let method = row_method(&self.file, method, caster)?;
+        let method = row_method(&self.file, method, caster)?.method;
         let hemi = hemisphere(resolution)?;
         let n = self.file.scene.patches().len() as u32;
         let ids: Vec<u32> = patches.unwrap_or_else(|| (0..n).collect());
@@ -230,44 +209,36 @@ impl Scene {
         script_f: Option<bool>,
     ) -> PyResult<(Vec<String>, Py<PyBytes>, Py<PyBytes>, Py<PyDict>)> {
         let scene = &self.file.scene;
-        // The binary's defaults: a View3D file's surfaces by group, its encl and emit.
-        let v3 = self.file.view3d.as_ref();
-        let by = by.unwrap_or(if v3.is_some() { "group" } else { "polygon" });
-        let enclosure = enclosure.unwrap_or(if v3.is_some_and(|c| c.encl) {
-            "closed"
-        } else {
-            "raw"
-        });
-        let script_f = script_f.unwrap_or(v3.is_some_and(|c| c.emit));
-        let mut opts = ViewFactorOptions::for_scene(scene);
-        opts.by = match by {
-            "patch" => Grouping::Patch,
-            "polygon" => Grouping::Polygon,
-            "group" => Grouping::Group,
-            _ => {
-                return Err(fail(format!(
-                    "by {by:?}: expected \"patch\", \"polygon\" or \"group\""
-                )))
-            }
+        let grouping = |by: &str| match by {
+            "patch" => Ok(Grouping::Patch),
+            "polygon" => Ok(Grouping::Polygon),
+            "group" => Ok(Grouping::Group),
+            _ => Err(fail(format!(
+                "by {by:?}: expected \"patch\", \"polygon\" or \"group\""
+            ))),
         };
-        opts.enclosure = match enclosure {
-            "raw" => Enclosure::Raw,
-            "reciprocal" => Enclosure::Reciprocal,
-            "closed" => Enclosure::Closed,
-            _ => {
-                return Err(fail(format!(
-                    "enclosure {enclosure:?}: expected \"raw\", \"reciprocal\" or \"closed\""
-                )))
-            }
+        let enclosure_of = |e: &str| match e {
+            "raw" => Ok(Enclosure::Raw),
+            "reciprocal" => Ok(Enclosure::Reciprocal),
+            "closed" => Ok(Enclosure::Closed),
+            _ => Err(fail(format!(
+                "enclosure {e:?}: expected \"raw\", \"reciprocal\" or \"closed\""
+            ))),
         };
-        if let Some(o) = origins {
-            opts.origins = o;
-        }
-        if let Some(c) = caster {
-            opts.caster = c.parse::<CasterKind>().map_err(fail)?;
-        }
-        opts.script_f = script_f;
-        let n = count_surfaces(scene, opts.by).map_err(fail)?;
+        // The binary's defaults and checks: a View3D file's surfaces by group, its encl
+        // and emit.
+        let request = ViewFactorRequest {
+            by: by.map(grouping).transpose()?,
+            origins,
+            enclosure: enclosure.map(enclosure_of).transpose()?,
+            script_f,
+            caster: caster
+                .map(str::parse::<CasterKind>)
+                .transpose()
+                .map_err(fail)?,
+        };
+        let (opts, n) = request.config(&self.file).map_err(fail)?;
+        let by = opts.by.name();
         if n > MAX_DENSE_SURFACES {
             return Err(fail(format!(
                 "view factors by {by}: {n} surfaces, over the {MAX_DENSE_SURFACES} a dense matrix is made for ({} GB); write it with `coherad viewfactors --format mtx` (scipy.io.mmread reads it) or `--format bin` (the README gives its numpy reader)",
@@ -319,40 +290,32 @@ impl Scene {
         tolerance: Option<f64>,
         reciprocal: bool,
     ) -> PyResult<(Py<PyBytes>, Py<PyDict>)> {
-        let method_name = method;
-        let method = row_method(&self.file, method, caster)?;
+        let picked = row_method(&self.file, method, caster)?;
         let hemi = hemisphere(resolution)?;
-        let mut opts = SolveOptions {
-            solver: match solver {
-                "gauss-seidel" => Solver::GaussSeidel,
-                "progressive" => Solver::Progressive,
-                "jacobi" => Solver::Jacobi,
-                _ => {
-                    return Err(fail(format!(
+        let solver = match solver {
+            "gauss-seidel" => Solver::GaussSeidel,
+            "progressive" => Solver::Progressive,
+            "jacobi" => Solver::Jacobi,
+            _ => {
+                return Err(fail(format!(
                     "solver {solver:?}: expected \"gauss-seidel\", \"progressive\" or \"jacobi\""
                 )))
-                }
-            },
-            reciprocal,
-            ..SolveOptions::default()
-        };
-        if let Some(t) = tolerance {
-            if !(t.is_finite() && t > 0.0) {
-                return Err(fail(format!("tolerance must be finite and > 0, not {t}")));
             }
-            opts.config.tolerance = t;
-            opts.matrix_free.tolerance = t;
-        }
+        };
+        let request = SolveRequest {
+            solver,
+            tolerance,
+            max_iterations: None,
+            reciprocal,
+            storage: None,
+            memory_limit: None,
+            temp_dir: None,
+        };
+        let opts = request.config().map_err(fail)?;
         let file = &self.file;
         // (Auto's estimated rows give way to exact ones where only matrix-free solving
         // fits, as `coherad solve` does.)
-        let method = if method_name == "auto" {
-            settle_auto(&file.scene, &hemi, method, &opts, 1)
-                .map_err(fail)?
-                .0
-        } else {
-            method
-        };
+        let (method, _) = settle_method(file, &hemi, &picked, &opts, 1).map_err(fail)?;
         let (solution, solved, _) =
             detached(py, || solve_scene(file, &hemi, method, &opts, &|_| {}))?;
         let flat: Vec<f64> = solution.radiosity.iter().flatten().copied().collect();
@@ -378,26 +341,19 @@ fn load(
     reflectance: Option<Vec<f64>>,
     materials: Option<PathBuf>,
 ) -> PyResult<Scene> {
-    let reflectance = match reflectance.as_deref() {
-        None => None,
-        Some(&[r]) => Some(Rgb([r; 3])),
-        Some(&[r, g, b]) => Some(Rgb([r, g, b])),
-        Some(v) => return Err(fail(format!("reflectance {v:?}: give 1 or 3 values"))),
-    };
-    if let Some(r) = reflectance.filter(|r| !r.0.iter().all(|c| (0.0..1.0).contains(c))) {
-        return Err(fail(format!(
-            "reflectance {:?}: each value must be in [0, 1)",
-            r.0
-        )));
-    }
-    let options = LoadOptions {
+    let reflectance = reflectance
+        .as_deref()
+        .map(reflectance_of)
+        .transpose()
+        .map_err(fail)?;
+    let config = LoadConfig {
         patch_size,
         triangulate,
         reflectance,
         materials,
     };
     let file = py
-        .detach(|| SceneFile::load_with(&path, &options))
+        .detach(|| SceneFile::load_with(&path, &config))
         .map_err(fail)?;
     Ok(Scene { file })
 }

@@ -30,7 +30,7 @@ pub const SCENE_EXTENSIONS: &[&str] = &["json", "obj", "vs3", "ply", "stl", "glt
 
 /// How a scene file is read.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct LoadOptions {
+pub struct LoadConfig {
     /// Target patch size of polygons whose file gives no grid (required for OBJ, PLY,
     /// STL and glTF files).
     pub patch_size: Option<f64>,
@@ -56,7 +56,7 @@ pub struct Loaded {
 
 /// Reads a scene file, by extension (see [`SCENE_EXTENSIONS`]), into a description:
 /// the side file's materials applied, then faces triangulated if asked.
-pub fn load(path: &Path, options: &LoadOptions) -> Result<Loaded, Error> {
+pub fn load(path: &Path, options: &LoadConfig) -> Result<Loaded, Error> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -117,9 +117,9 @@ pub fn load_scene(path: &Path, patch_size: Option<f64>) -> Result<Scene, Error> 
 
 /// Reads a scene file into an unvalidated description, with only a patch size.
 pub fn load_scene_desc(path: &Path, patch_size: Option<f64>) -> Result<SceneDesc, Error> {
-    let options = LoadOptions {
+    let options = LoadConfig {
         patch_size,
-        ..LoadOptions::default()
+        ..LoadConfig::default()
     };
     load(path, &options).map(|l| l.desc)
 }

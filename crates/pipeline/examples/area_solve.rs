@@ -7,8 +7,8 @@
 //! `cargo run --release -p rad-pipeline --example area_solve -- SCENE.json N OUT.json
 //! [RES]`
 
-use rad_pipeline::solve::{solve, surfaces, SolveOptions};
-use rad_pipeline::viewfactors::{area_rows, ViewFactorOptions};
+use rad_pipeline::solve::{solve, surfaces, SceneSolveConfig};
+use rad_pipeline::viewfactors::{area_rows, ViewFactorConfig};
 use rad_pipeline::{Hemisphere, HemisphereConfig, SceneFile};
 use rad_solver::FormFactors;
 
@@ -20,14 +20,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let scene = SceneFile::load(scene.as_ref(), None)?;
     let (nt, np) = rad_pipeline::parse_resolution(rest.first().map_or("180x720", |s| s))?;
     let hemi = Hemisphere::new(HemisphereConfig::exact(nt, np))?;
-    let opts = ViewFactorOptions {
+    let opts = ViewFactorConfig {
         origins: n.parse()?,
-        ..ViewFactorOptions::for_scene(&scene.scene)
+        ..ViewFactorConfig::for_scene(&scene.scene)
     };
     let all: Vec<u32> = (0..scene.scene.patches().len() as u32).collect();
     let rows = area_rows(&scene.scene, &hemi, &opts, &all, &|_| {})?;
     let ff = FormFactors::from_rows(all.len(), rows.iter().map(|r| (r.patch, &r.entries[..])))?;
-    let solved = solve(&ff, &surfaces(&scene.scene), &SolveOptions::default())?;
+    let solved = solve(&ff, &surfaces(&scene.scene), &SceneSolveConfig::default())?;
     let json = serde_json::json!({
         "radiosity": solved.solution.radiosity,
         "ambient": solved.solution.ambient,

@@ -9,6 +9,7 @@ pub mod matrix_file;
 mod method;
 pub mod output;
 mod parse;
+mod request;
 pub mod row_file;
 mod rows;
 mod scene_file;
@@ -20,14 +21,19 @@ pub use method::{CasterKind, RowMethod};
 // The vocabulary the front ends need, so that they see the libraries only through
 // the pipeline.
 pub use glam::Vec3;
-pub use parse::{parse_patch_list, parse_resolution};
+pub use parse::{
+    parse_patch_list, parse_reflectance, parse_resolution, parse_size, reflectance_of,
+};
 pub use rad_core::Rgb;
 pub use rad_estimator::{EstimateStats, Mode};
-pub use rad_geometry::file::{LoadOptions, SCENE_EXTENSIONS};
+pub use rad_geometry::file::{LoadConfig, SCENE_EXTENSIONS};
 pub use rad_geometry::{Camera, Triangulation};
 pub use rad_hemisphere::{Hemisphere, HemisphereConfig, Row};
 pub use rad_render::{RenderConfig, Shading, View};
 pub use rad_solver::{Enclosure, SolveConfig, Solver};
+pub use request::{
+    pick_method, settle_method, MethodChoice, PickedMethod, SolveRequest, ViewFactorRequest,
+};
 pub use rows::{rows, rows_streamed, rows_streamed_of, Rows, STREAM_CHUNK};
 pub(crate) use rows::{with_caster as rows_with_caster, CasterJob};
 pub use scene_file::SceneFile;
@@ -48,6 +54,10 @@ pub enum Error {
     Grid(#[from] rad_accel::Error),
     #[error(transparent)]
     Hemisphere(#[from] rad_hemisphere::Error),
+    /// A setting a front end was given that cannot be used: the message names it as
+    /// the binary's flag does, and what would do.
+    #[error("{0}")]
+    Setting(String),
     #[error("bad {what} {input:?}: {reason}")]
     Parse {
         what: &'static str,

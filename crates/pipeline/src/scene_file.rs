@@ -2,7 +2,7 @@
 //! solution is only ever read back against the very scene it was made for.
 
 use crate::Error;
-use rad_geometry::file::{load, LoadOptions, View3dControl};
+use rad_geometry::file::{load, LoadConfig, View3dControl};
 use rad_geometry::{Scene, Triangulation};
 use std::path::{Path, PathBuf};
 
@@ -38,16 +38,16 @@ impl SceneFile {
 
     /// Loads `path` with `patch_size` for polygons that give no grid.
     pub fn load(path: &Path, patch_size: Option<f64>) -> Result<SceneFile, Error> {
-        let options = LoadOptions {
+        let options = LoadConfig {
             patch_size,
-            ..LoadOptions::default()
+            ..LoadConfig::default()
         };
         SceneFile::load_with(path, &options)
     }
 
     /// Loads `path` (any format of `rad_geometry::file::SCENE_EXTENSIONS`) as `options`
     /// say, and validates it.
-    pub fn load_with(path: &Path, options: &LoadOptions) -> Result<SceneFile, Error> {
+    pub fn load_with(path: &Path, options: &LoadConfig) -> Result<SceneFile, Error> {
         if let Err(source) = std::fs::metadata(path) {
             return Err(Error::Io {
                 action: "read",

@@ -15,7 +15,7 @@ mod storage;
 mod stored;
 
 pub use config::{
-    Progress, SolveOptions, Storage, DEFAULT_MEMORY_LIMIT, MATRIX_FREE_BATCH,
+    Progress, SceneSolveConfig, Storage, DEFAULT_MEMORY_LIMIT, MATRIX_FREE_BATCH,
     MATRIX_FREE_OVERSHOOT, MATRIX_FREE_TOLERANCE,
 };
 pub use out_of_core::OutOfCoreStats;
@@ -40,7 +40,7 @@ pub fn solve_scene(
     scene: &SceneFile,
     hemi: &Hemisphere,
     method: RowMethod,
-    opts: &SolveOptions,
+    opts: &SceneSolveConfig,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<(SolutionFile, Solved, EstimateStats), Error> {
     let solved = solve_scene_shared(scene, hemi, method, opts, progress, &Alone)?;
@@ -57,7 +57,7 @@ pub fn settle_auto(
     scene: &Scene,
     hemi: &Hemisphere,
     method: RowMethod,
-    opts: &SolveOptions,
+    opts: &SceneSolveConfig,
     processes: usize,
 ) -> Result<(RowMethod, bool), Error> {
     let RowMethod::Estimated { centres, .. } = method else {
@@ -91,7 +91,7 @@ pub fn solve_scene_shared(
     scene: &SceneFile,
     hemi: &Hemisphere,
     method: RowMethod,
-    opts: &SolveOptions,
+    opts: &SceneSolveConfig,
     progress: &(dyn Fn(Progress) + Sync),
     peers: &dyn Peers,
 ) -> Result<Option<(SolutionFile, Solved, EstimateStats)>, Error> {
@@ -124,7 +124,7 @@ fn storage_of(
     scene: &SceneFile,
     hemi: &Hemisphere,
     method: RowMethod,
-    opts: &SolveOptions,
+    opts: &SceneSolveConfig,
     processes: usize,
 ) -> Result<Storage, Error> {
     if !opts.reciprocal && opts.solver == Solver::Progressive {

@@ -44,7 +44,7 @@ pub const DEFAULT_ORIGINS: u32 = 2;
 
 /// How to make a scene's view factors.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ViewFactorOptions {
+pub struct ViewFactorConfig {
     pub by: Grouping,
     /// Origins a patch side (`origins²` hemispheres a patch).
     pub origins: u32,
@@ -55,16 +55,25 @@ pub struct ViewFactorOptions {
     pub script_f: bool,
 }
 
-impl ViewFactorOptions {
+impl ViewFactorConfig {
     /// The defaults for `scene`: by polygon, [`DEFAULT_ORIGINS`], raw, the fastest caster.
-    pub fn for_scene(scene: &Scene) -> ViewFactorOptions {
-        ViewFactorOptions {
+    pub fn for_scene(scene: &Scene) -> ViewFactorConfig {
+        ViewFactorConfig {
             by: Grouping::Polygon,
             origins: DEFAULT_ORIGINS,
             enclosure: Enclosure::Raw,
             caster: CasterKind::fastest_for(scene),
             script_f: false,
         }
+    }
+
+    /// Whether a file of `format` is written as its rows are made, never held
+    /// ([`stream_patch_matrix`]): the binary format, patch to patch, raw, no script-F.
+    pub fn streams_to(&self, format: MatrixFormat) -> bool {
+        format == MatrixFormat::Bin
+            && self.by == Grouping::Patch
+            && self.enclosure == Enclosure::Raw
+            && !self.script_f
     }
 }
 
@@ -74,7 +83,7 @@ pub struct ViewFactors {
     pub by: Grouping,
     pub origins: u32,
     pub enclosure: Enclosure,
-    /// Whether `matrix` holds script-F ([`ViewFactorOptions::script_f`]).
+    /// Whether `matrix` holds script-F ([`ViewFactorConfig::script_f`]).
     pub script_f: bool,
     /// One name a surface: the polygon's or group's name, or `patch N`.
     pub names: Vec<String>,
@@ -247,7 +256,7 @@ fn patch_row(surface: &[u32], row: &Row) -> (Vec<(u32, f64)>, f64) {
 fn for_each_row(
     scene: &Scene,
     hemi: &Hemisphere,
-    opts: &ViewFactorOptions,
+    opts: &ViewFactorConfig,
     progress: &(dyn Fn(usize) + Sync),
     sink: &mut (dyn FnMut(&Row) -> Result<(), Error> + Send),
 ) -> Result<(), Error> {
@@ -313,7 +322,7 @@ pub struct Streamed {
 pub fn stream_patch_matrix(
     scene: &Scene,
     hemi: &Hemisphere,
-    opts: &ViewFactorOptions,
+    opts: &ViewFactorConfig,
     run: &ViewFactorRun,
     w: &mut (dyn Write + Send),
     progress: &(dyn Fn(usize) + Sync),
@@ -391,7 +400,7 @@ fn write_bin(w: &mut dyn Write, vf: &ViewFactors, run: &ViewFactorRun) -> std::i
 pub fn view_factors(
     scene: &Scene,
     hemi: &Hemisphere,
-    opts: &ViewFactorOptions,
+    opts: &ViewFactorConfig,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<ViewFactors, Error> {
     view_factors_with(scene, opts, &mut |sink| {
@@ -414,7 +423,7 @@ pub fn row_patches(scene: &Scene) -> Vec<PatchId> {
 pub fn area_rows(
     scene: &Scene,
     hemi: &Hemisphere,
-    opts: &ViewFactorOptions,
+    opts: &ViewFactorConfig,
     patches: &[PatchId],
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Vec<Row>, Error> {
@@ -453,7 +462,7 @@ pub fn area_rows(
 /// summed; the same result, to the bit, as [`view_factors`] making them.
 pub fn view_factors_of_rows(
     scene: &Scene,
-    opts: &ViewFactorOptions,
+    opts: &ViewFactorConfig,
     rows: Vec<Row>,
 ) -> Result<ViewFactors, Error> {
     let want = row_patches(scene);
@@ -480,7 +489,7 @@ type RowFeed<'a> =
 /// [`view_factors`] with its rows from `feed`.
 fn view_factors_with(
     scene: &Scene,
-    opts: &ViewFactorOptions,
+    opts: &ViewFactorConfig,
     feed: &mut RowFeed<'_>,
 ) -> Result<ViewFactors, Error> {
     let (surface, names) = surfaces(scene, opts.by)?;

@@ -8,7 +8,7 @@ use crate::Error;
 use rad_geometry::scenes::{cornell_box, loft};
 use rad_geometry::Scene;
 use rad_pipeline::share::{in_threads, shared_rows, SharedRun};
-use rad_pipeline::solve::{solve_scene, solve_scene_shared, SolutionFile, SolveOptions};
+use rad_pipeline::solve::{solve_scene, solve_scene_shared, SceneSolveConfig, SolutionFile};
 use rad_pipeline::{
     rows, CasterKind, Hemisphere, HemisphereConfig, Mode, RowMethod, SceneFile, Solver, Storage,
 };
@@ -121,10 +121,10 @@ pub fn run(quick: bool, progress: &(dyn Fn(&str, usize, usize) + Sync)) -> Resul
     ];
     for (k, (storage, solver)) in solves.into_iter().enumerate() {
         progress("simulated ranks: solves", k, solves.len());
-        let opts = SolveOptions {
+        let opts = SceneSolveConfig {
             solver,
             storage: Some(storage),
-            ..SolveOptions::default()
+            ..SceneSolveConfig::default()
         };
         let (want, _, _) = solve_scene(&cornell, &hemi, method, &opts, &|_| {})?;
         let want = without_timings(&want);

@@ -9,7 +9,7 @@ use rad_estimator::{windows, Mode};
 use rad_geometry::scenes::{cornell_box, cube, loft, CORNELL_PATCH_MM};
 use rad_geometry::Scene;
 use rad_hemisphere::{compute_rows, Hemisphere, HemisphereConfig, Row, Scan};
-use rad_pipeline::solve::{solve, surfaces, SolveOptions, Solved, SolverJson};
+use rad_pipeline::solve::{solve, surfaces, SceneSolveConfig, Solved, SolverJson};
 use rad_pipeline::{default_grid, CasterKind, RowMethod};
 use rad_render::{relative_difference, render, DiffStats, Image, RenderConfig, Shading, View};
 use rad_solver::{FormFactors, SolveConfig, Solver};
@@ -463,14 +463,14 @@ fn solve_and_render(
     progress: &(dyn Fn(&str, usize, usize) + Sync),
 ) -> Result<(Vec<SolveRun>, Vec<(String, Image, bool)>), Error> {
     let s = surfaces(scene);
-    let opts = SolveOptions {
+    let opts = SceneSolveConfig {
         solver: Solver::GaussSeidel,
         config: SolveConfig {
             tolerance: cfg.tolerance,
             ..SolveConfig::default()
         },
         reciprocal: true,
-        ..SolveOptions::default()
+        ..SceneSolveConfig::default()
     };
     let view = View::of_scene(scene, cfg.image.0, cfg.image.1)?;
     let rcfg = RenderConfig {
@@ -573,14 +573,14 @@ fn scene_solves_with_b(
                 [1.0; 3];
         }
     }
-    let opts = |solver| SolveOptions {
+    let opts = |solver| SceneSolveConfig {
         solver,
         config: SolveConfig {
             tolerance,
             ..SolveConfig::default()
         },
         reciprocal: true,
-        ..SolveOptions::default()
+        ..SceneSolveConfig::default()
     };
     let gs = solve(&ff, &s, &opts(Solver::GaussSeidel))?;
     let pr = solve(&ff, &s, &opts(Solver::Progressive))?;

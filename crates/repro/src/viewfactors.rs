@@ -10,7 +10,7 @@ use glam::Vec3;
 use rad_core::Rgb;
 use rad_geometry::scenes::{cube, loft, urban_canyon};
 use rad_geometry::{Material, PatchGrid, PolygonDesc, Scene, SceneDesc};
-use rad_pipeline::viewfactors::{view_factors, Grouping, ViewFactorOptions};
+use rad_pipeline::viewfactors::{view_factors, Grouping, ViewFactorConfig};
 use rad_pipeline::{Enclosure, Hemisphere, HemisphereConfig};
 use serde::Serialize;
 use std::time::Instant;
@@ -195,11 +195,11 @@ pub struct ViewFactorResults {
     pub scale: Vec<ScaleRun>,
 }
 
-fn options(scene: &Scene, origins: u32, enclosure: Enclosure) -> ViewFactorOptions {
-    ViewFactorOptions {
+fn options(scene: &Scene, origins: u32, enclosure: Enclosure) -> ViewFactorConfig {
+    ViewFactorConfig {
         origins,
         enclosure,
-        ..ViewFactorOptions::for_scene(scene)
+        ..ViewFactorConfig::for_scene(scene)
     }
 }
 

@@ -880,14 +880,14 @@ fn flags_of(help: &str) -> Vec<String> {
 }
 
 #[test]
-fn the_readme_lists_every_command_and_flag_that_help_does() {
-    let readme =
-        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md"))
+fn the_cli_reference_lists_every_command_and_flag_that_help_does() {
+    let page =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/cli.md"))
             .unwrap();
-    let start = readme
+    let start = page
         .find("## The `coherad` tool")
-        .expect("the README's coherad section");
-    let section = &readme[start..];
+        .expect("docs/cli.md's coherad section");
+    let section = &page[start..];
     let section = &section[..section[3..].find("\n## ").map_or(section.len(), |k| k + 3)];
     let top = String::from_utf8(coherad(&["--help"]).stdout).unwrap();
     let commands: Vec<String> = top
@@ -904,14 +904,14 @@ fn the_readme_lists_every_command_and_flag_that_help_does() {
     for flag in &global {
         assert!(
             section.contains(flag.as_str()),
-            "README: the global flag {flag} is not documented"
+            "docs/cli.md: the global flag {flag} is not documented"
         );
     }
     for cmd in &commands {
         let key = format!("- `{cmd} ");
         let at = section
             .find(&key)
-            .unwrap_or_else(|| panic!("README: no bullet for `{cmd}`"));
+            .unwrap_or_else(|| panic!("docs/cli.md: no bullet for `{cmd}`"));
         let bullet = &section[at..];
         let bullet = &bullet[..bullet[1..].find("\n- `").map_or(bullet.len(), |k| k + 1)];
         let help = String::from_utf8(coherad(&[cmd, "--help"]).stdout).unwrap();
@@ -926,7 +926,7 @@ fn the_readme_lists_every_command_and_flag_that_help_does() {
         for flag in &own {
             assert!(
                 bullet.contains(flag.as_str()),
-                "README: `{cmd}`'s bullet does not mention {flag}"
+                "docs/cli.md: `{cmd}`'s bullet does not mention {flag}"
             );
         }
     }

@@ -1,6 +1,6 @@
 //! Triangle and polygon meshes without materials of their own: PLY (ASCII and binary,
 //! through `ply-rs-bw`) and STL (ASCII and binary, through `stl_io`). Every face is a
-//! polygon of the default material (`LoadOptions::reflectance`, else 0.5 grey); a
+//! polygon of the default material (`LoadConfig::reflectance`, else 0.5 grey); a
 //! material side file (`--materials`) names emitters and other materials.
 
 use crate::error::Error;

@@ -4,7 +4,7 @@
 //! clear errors for truncated or malformed files.
 
 use glam::Vec3;
-use rad_geometry::file::{load, LoadOptions};
+use rad_geometry::file::{load, LoadConfig};
 use rad_geometry::scenes::blob_room;
 use rad_geometry::Scene;
 use std::io::Write;
@@ -139,14 +139,14 @@ fn obj_bytes(tris: &[[Vec3; 3]]) -> Vec<u8> {
     out
 }
 
-fn options(patch_size: f64) -> LoadOptions {
-    LoadOptions {
+fn options(patch_size: f64) -> LoadConfig {
+    LoadConfig {
         patch_size: Some(patch_size),
-        ..LoadOptions::default()
+        ..LoadConfig::default()
     }
 }
 
-fn scene_of(path: &Path, options: &LoadOptions) -> Scene {
+fn scene_of(path: &Path, options: &LoadConfig) -> Scene {
     let loaded = load(path, options).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     Scene::new(loaded.desc).unwrap()
 }
@@ -274,7 +274,7 @@ fn a_mesh_needs_a_patch_size_and_the_error_says_so() {
         "m.stl",
         &stl_bytes(&blob_triangles()[..4], true),
     );
-    let desc = load(&path, &LoadOptions::default()).unwrap().desc;
+    let desc = load(&path, &LoadConfig::default()).unwrap().desc;
     let msg = Scene::new(desc).unwrap_err().to_string();
     assert!(msg.contains("--patch-size"), "{msg}");
 }
@@ -419,7 +419,7 @@ fn the_material_file_names_emitters_by_box_and_by_face_range() {
         lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
     );
     let map_path = write(dir.path(), "materials.json", map.as_bytes());
-    let opts = LoadOptions {
+    let opts = LoadConfig {
         materials: Some(map_path.clone()),
         ..options(1.0)
     };
@@ -446,7 +446,7 @@ fn the_material_file_names_emitters_by_box_and_by_face_range() {
     let miss_path = write(dir.path(), "miss.json", miss.as_bytes());
     let msg = load(
         &path,
-        &LoadOptions {
+        &LoadConfig {
             materials: Some(miss_path),
             ..options(1.0)
         },
@@ -461,7 +461,7 @@ fn the_material_file_names_emitters_by_box_and_by_face_range() {
     let unknown_path = write(dir.path(), "unknown.json", unknown.as_bytes());
     let msg = load(
         &path,
-        &LoadOptions {
+        &LoadConfig {
             materials: Some(unknown_path),
             ..options(1.0)
         },
@@ -484,7 +484,7 @@ fn triangulate_mends_an_obj_with_a_concave_and_a_degenerate_face() {
         msg.contains("not convex") && msg.contains("--triangulate"),
         "{msg}"
     );
-    let opts = LoadOptions {
+    let opts = LoadConfig {
         triangulate: true,
         ..options(0.5)
     };

@@ -7,7 +7,7 @@
 //! solution is the same to the bit whatever the number of processes (one included) and
 //! threads; no process ever holds another's rows.
 
-use super::config::{solve_key, Progress, SolveOptions, Storage};
+use super::config::{solve_key, Progress, SceneSolveConfig, Storage};
 use super::config::{SCALING_ITERATIONS, SCALING_TOLERANCE};
 use super::solution::{check_finite, solution_file, surfaces, Answer, MatrixJson, Solved};
 use crate::share::{self, Peers, Share};
@@ -30,7 +30,7 @@ pub(crate) fn solve_by_rows(
     scene: &SceneFile,
     hemi: &Hemisphere,
     method: RowMethod,
-    opts: &SolveOptions,
+    opts: &SceneSolveConfig,
     progress: &(dyn Fn(Progress) + Sync),
     peers: &dyn Peers,
 ) -> Result<Answer, Error> {
@@ -102,7 +102,7 @@ fn held_rows(
     scene: &SceneFile,
     hemi: &Hemisphere,
     method: RowMethod,
-    opts: &SolveOptions,
+    opts: &SceneSolveConfig,
     progress: &(dyn Fn(Progress) + Sync),
     peers: &dyn Peers,
     shares: &[Share],

@@ -1,4 +1,4 @@
-//! How a scene is solved: the settings ([`SolveOptions`]), the ways to hold the form
+//! How a scene is solved: the settings ([`SceneSolveConfig`]), the ways to hold the form
 //! factors ([`Storage`]), what a long solve reports ([`Progress`]), and the constants
 //! the ways of solving share.
 
@@ -70,7 +70,7 @@ impl Progress {
 
 /// How to solve.
 #[derive(Clone, Debug)]
-pub struct SolveOptions {
+pub struct SceneSolveConfig {
     pub solver: Solver,
     pub config: SolveConfig,
     /// Make the matrix reciprocal first ([`FormFactors::reciprocal`]); without it the
@@ -91,7 +91,7 @@ pub struct SolveOptions {
     pub temp_dir: Option<std::path::PathBuf>,
 }
 
-impl SolveOptions {
+impl SceneSolveConfig {
     /// The folder out-of-core solving writes to.
     pub fn temp_dir(&self) -> std::path::PathBuf {
         self.temp_dir.clone().unwrap_or_else(std::env::temp_dir)
@@ -102,9 +102,9 @@ impl SolveOptions {
 /// radiosity over the largest radiosity).
 pub const MATRIX_FREE_TOLERANCE: f64 = 1e-4;
 
-impl Default for SolveOptions {
+impl Default for SceneSolveConfig {
     fn default() -> Self {
-        SolveOptions {
+        SceneSolveConfig {
             solver: Solver::GaussSeidel,
             config: SolveConfig::default(),
             reciprocal: true,
@@ -125,7 +125,7 @@ pub(crate) const SCALING_ITERATIONS: usize = 5_000;
 
 /// What processes sharing a solve must agree on besides the scene (for
 /// [`crate::share::run_fingerprint`]).
-pub(crate) fn solve_key(hemi: &Hemisphere, method: RowMethod, opts: &SolveOptions) -> String {
+pub(crate) fn solve_key(hemi: &Hemisphere, method: RowMethod, opts: &SceneSolveConfig) -> String {
     format!(
         "solve {}x{} {} {opts:?}",
         hemi.n_theta(),

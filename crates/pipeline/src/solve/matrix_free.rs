@@ -2,7 +2,7 @@
 //! shoots, keeping rows while the memory limit allows. Shared among processes, every
 //! process runs the same shooting and makes its share of each batch's rows.
 
-use super::config::{solve_key, Progress, SolveOptions, Storage};
+use super::config::{solve_key, Progress, SceneSolveConfig, Storage};
 use super::config::{MATRIX_FREE_BATCH, MATRIX_FREE_OVERSHOOT};
 use super::solution::{check_finite, solution_file, surfaces, Answer, Solved};
 use super::storage::matrix_free_floor;
@@ -22,7 +22,7 @@ pub(crate) fn solve_matrix_free(
     scene: &SceneFile,
     hemi: &Hemisphere,
     method: RowMethod,
-    opts: &SolveOptions,
+    opts: &SceneSolveConfig,
     progress: &(dyn Fn(Progress) + Sync),
     peers: &dyn Peers,
 ) -> Result<Answer, Error> {
@@ -52,7 +52,7 @@ fn shoot(
     hemi: &Hemisphere,
     method: RowMethod,
     surfaces: &Surfaces,
-    opts: &SolveOptions,
+    opts: &SceneSolveConfig,
     progress: &(dyn Fn(Progress) + Sync),
     peers: &dyn Peers,
 ) -> Result<(Solution, MatrixFreeStats), Error> {

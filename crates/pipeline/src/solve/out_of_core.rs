@@ -2,7 +2,7 @@
 //! an unnamed temporary file, then shot from there as matrix-free solving shoots. One
 //! process only.
 
-use super::config::{Progress, SolveOptions, Storage};
+use super::config::{Progress, SceneSolveConfig, Storage};
 use super::config::{MATRIX_FREE_BATCH, MATRIX_FREE_OVERSHOOT};
 use super::solution::{check_finite, solution_file, surfaces, Answer, Solved};
 use super::storage::BYTES_PER_PATCH;
@@ -23,7 +23,7 @@ pub(crate) fn solve_out_of_core(
     scene: &SceneFile,
     hemi: &Hemisphere,
     method: RowMethod,
-    opts: &SolveOptions,
+    opts: &SceneSolveConfig,
     progress: &(dyn Fn(Progress) + Sync),
     peers: &dyn Peers,
 ) -> Result<Answer, Error> {
@@ -72,7 +72,7 @@ fn write_and_shoot(
     hemi: &Hemisphere,
     method: RowMethod,
     surfaces: &Surfaces,
-    opts: &SolveOptions,
+    opts: &SceneSolveConfig,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<(Solution, MatrixFreeStats, EstimateStats, OutOfCoreStats), Error> {
     let n = scene.patches().len();

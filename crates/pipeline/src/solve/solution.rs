@@ -2,7 +2,7 @@
 //! file that `coherad solve` writes and `coherad render` reads (with serde: errors give
 //! the line and column), and the checks on both.
 
-use super::config::{SolveOptions, Storage};
+use super::config::{SceneSolveConfig, Storage};
 use crate::{Error, RowMethod, SceneFile};
 use rad_core::PatchId;
 use rad_estimator::EstimateStats;
@@ -137,7 +137,7 @@ pub struct EnergyJson {
 }
 
 impl SolverJson {
-    pub fn new(s: &Solved, opts: &SolveOptions) -> SolverJson {
+    pub fn new(s: &Solved, opts: &SceneSolveConfig) -> SolverJson {
         let r = &s.solution.report;
         SolverJson {
             solver: r.solver.name(),
@@ -204,7 +204,7 @@ pub(crate) fn solution_file(
     scene: &SceneFile,
     hemi: &Hemisphere,
     method: RowMethod,
-    opts: &SolveOptions,
+    opts: &SceneSolveConfig,
     solved: &Solved,
     form_factors_seconds: f64,
 ) -> SolutionFile {

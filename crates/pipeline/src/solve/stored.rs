@@ -2,7 +2,7 @@
 //! gathered on the first), streamed into the pair storage, made reciprocal and solved
 //! by Gauss-Seidel, progressive refinement or Jacobi sweeps.
 
-use super::config::{solve_key, Progress, SolveOptions, Storage};
+use super::config::{solve_key, Progress, SceneSolveConfig, Storage};
 use super::config::{SCALING_ITERATIONS, SCALING_TOLERANCE};
 use super::solution::{check_finite, solution_file, surfaces, Answer, MatrixJson, Solved};
 use crate::share::{shared_rows, Peers, SharedRun};
@@ -16,7 +16,11 @@ use rad_solver::{
 use std::time::Instant;
 
 /// Solves `ff` (rows as computed) for `surfaces`: [`solve_pairs`] on the same values.
-pub fn solve(ff: &FormFactors, surfaces: &Surfaces, opts: &SolveOptions) -> Result<Solved, Error> {
+pub fn solve(
+    ff: &FormFactors,
+    surfaces: &Surfaces,
+    opts: &SceneSolveConfig,
+) -> Result<Solved, Error> {
     solve_pairs(&PairMatrix::from_form_factors(ff), surfaces, opts)
 }
 
@@ -24,7 +28,7 @@ pub fn solve(ff: &FormFactors, surfaces: &Surfaces, opts: &SolveOptions) -> Resu
 pub fn solve_pairs(
     ff: &PairMatrix,
     surfaces: &Surfaces,
-    opts: &SolveOptions,
+    opts: &SceneSolveConfig,
 ) -> Result<Solved, Error> {
     let t = Instant::now();
     let (matrix, reciprocity) = if opts.reciprocal {
@@ -76,7 +80,7 @@ pub(crate) fn solve_stored(
     scene: &SceneFile,
     hemi: &Hemisphere,
     method: RowMethod,
-    opts: &SolveOptions,
+    opts: &SceneSolveConfig,
     progress: &(dyn Fn(Progress) + Sync),
     peers: &dyn Peers,
 ) -> Result<Answer, Error> {

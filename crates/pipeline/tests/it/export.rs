@@ -1,6 +1,6 @@
 //! `coherad export`: glTF and PLY files that read back as what was written.
 
-use rad_geometry::file::{load, LoadOptions};
+use rad_geometry::file::{load, LoadConfig};
 use rad_geometry::{scenes, Scene};
 use rad_pipeline::export::{auto_scale, export, ExportFormat};
 use rad_pipeline::SceneFile;
@@ -9,10 +9,10 @@ fn file_of(scene: Scene) -> SceneFile {
     SceneFile::of_scene("scene.json", scene)
 }
 
-fn opts() -> LoadOptions {
-    LoadOptions {
+fn opts() -> LoadConfig {
+    LoadConfig {
         patch_size: Some(1e9),
-        ..LoadOptions::default()
+        ..LoadConfig::default()
     }
 }
 

@@ -3,7 +3,7 @@
 
 use rad_geometry::{scenes, Scene};
 use rad_pipeline::images::render_image;
-use rad_pipeline::solve::{solve, solve_scene, surfaces, SolveOptions};
+use rad_pipeline::solve::{solve, solve_scene, surfaces, SceneSolveConfig};
 use rad_pipeline::{
     rows, rows_streamed, CasterKind, Hemisphere, HemisphereConfig, Mode, RenderConfig, RowMethod,
     SceneFile, Shading, Solver, Storage, View, DEFAULT_MEMORY_LIMIT, STREAM_CHUNK,
@@ -153,9 +153,9 @@ fn streamed_solve_matches_the_rows_solve_and_not_the_threads() {
     let s = surfaces(&scene.scene);
     let (rec, _) = ff.reciprocal(&s.area, 1e-9, 5_000).unwrap();
     for solver in [Solver::GaussSeidel, Solver::Progressive, Solver::Jacobi] {
-        let opts = SolveOptions {
+        let opts = SceneSolveConfig {
             solver,
-            ..SolveOptions::default()
+            ..SceneSolveConfig::default()
         };
         let run = |threads| {
             let pool = rayon::ThreadPoolBuilder::new()
@@ -215,16 +215,16 @@ fn matrix_free_agrees_with_the_stored_solve_and_not_the_threads() {
     let method = RowMethod::Exact {
         caster: CasterKind::Scan,
     };
-    let stored = SolveOptions {
+    let stored = SceneSolveConfig {
         storage: Some(Storage::Stored),
-        ..SolveOptions::default()
+        ..SceneSolveConfig::default()
     };
     let (_, reference, _) = solve_scene(&scene, &hemi, method, &stored, &|_| {}).unwrap();
     let free = |threads, limit| {
-        let opts = SolveOptions {
+        let opts = SceneSolveConfig {
             storage: Some(Storage::MatrixFree),
             memory_limit: limit,
-            ..SolveOptions::default()
+            ..SceneSolveConfig::default()
         };
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -265,11 +265,11 @@ fn out_of_core_is_matrix_free_shooting_to_the_bit_and_leaves_nothing() {
     };
     let temp = tempfile::tempdir().unwrap();
     let run = |storage, method, threads, limit| {
-        let opts = SolveOptions {
+        let opts = SceneSolveConfig {
             storage: Some(storage),
             memory_limit: limit,
             temp_dir: Some(temp.path().to_path_buf()),
-            ..SolveOptions::default()
+            ..SceneSolveConfig::default()
         };
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -300,7 +300,7 @@ fn out_of_core_is_matrix_free_shooting_to_the_bit_and_leaves_nothing() {
     assert!(e.balance.relative_imbalance < 1e-9, "{:?}", e.balance);
     let held = all_rows(&scene.scene, &hemi, estimated).rows;
     let config = rad_solver::MatrixFreeConfig {
-        solve: SolveOptions::default().matrix_free,
+        solve: SceneSolveConfig::default().matrix_free,
         batch: rad_pipeline::MATRIX_FREE_BATCH,
         overshoot: rad_pipeline::MATRIX_FREE_OVERSHOOT,
         cache_bytes: 0,
@@ -327,10 +327,10 @@ fn out_of_core_is_matrix_free_shooting_to_the_bit_and_leaves_nothing() {
     // Nothing is left in the temporary folder.
     assert_eq!(std::fs::read_dir(temp.path()).unwrap().count(), 0);
     // A temporary folder that does not exist is named.
-    let opts = SolveOptions {
+    let opts = SceneSolveConfig {
         storage: Some(Storage::OutOfCore),
         temp_dir: Some(temp.path().join("no/such")),
-        ..SolveOptions::default()
+        ..SceneSolveConfig::default()
     };
     let e = solve_scene(&scene, &hemi, exact, &opts, &|_| {})
         .err()
@@ -351,10 +351,10 @@ fn memory_limit_chooses_the_storage_and_refuses_what_fits_nothing() {
     };
     let temp = tempfile::tempdir().unwrap();
     let run = |method, limit| {
-        let opts = SolveOptions {
+        let opts = SceneSolveConfig {
             memory_limit: limit,
             temp_dir: Some(temp.path().to_path_buf()),
-            ..SolveOptions::default()
+            ..SceneSolveConfig::default()
         };
         solve_scene(&scene, &hemi, method, &opts, &|_| {})
     };
@@ -379,9 +379,9 @@ fn memory_limit_chooses_the_storage_and_refuses_what_fits_nothing() {
     }
     // Shared among processes (no temporary folder of one's own), matrix-free.
     let shared = rad_pipeline::share::in_threads(2, |peers| {
-        let opts = SolveOptions {
+        let opts = SceneSolveConfig {
             memory_limit: 6 << 20,
-            ..SolveOptions::default()
+            ..SceneSolveConfig::default()
         };
         rad_pipeline::solve::solve_scene_shared(&scene, &hemi, exact, &opts, &|_| {}, peers)
             .map(|s| s.map(|(file, _, _)| file.matrix.storage))
@@ -391,10 +391,10 @@ fn memory_limit_chooses_the_storage_and_refuses_what_fits_nothing() {
     // Jacobi, shared by rows: each process's share must fit the limit; more processes
     // need less each.
     let jacobi = |limit, processes| {
-        let opts = SolveOptions {
+        let opts = SceneSolveConfig {
             solver: Solver::Jacobi,
             memory_limit: limit,
-            ..SolveOptions::default()
+            ..SceneSolveConfig::default()
         };
         let got = rad_pipeline::share::in_threads(processes, |peers| {
             rad_pipeline::solve::solve_scene_shared(&scene, &hemi, exact, &opts, &|_| {}, peers)

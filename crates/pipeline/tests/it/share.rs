@@ -7,7 +7,7 @@ use rad_geometry::{scenes, Scene};
 use rad_pipeline::share::{
     decode_rows, encode_rows, in_threads, join_rows, shared_rows, shares, SharedRun,
 };
-use rad_pipeline::solve::{solve_scene, solve_scene_shared, SolveOptions};
+use rad_pipeline::solve::{solve_scene, solve_scene_shared, SceneSolveConfig};
 use rad_pipeline::{
     rows, CasterKind, Hemisphere, HemisphereConfig, Mode, RowMethod, SceneFile, Solver, Storage,
 };
@@ -114,7 +114,7 @@ fn rows_bytes_that_are_cut_or_padded_are_refused() {
 #[test]
 fn view_factors_of_shared_rows_are_one_runs_to_the_bit() {
     use rad_pipeline::viewfactors::{
-        area_rows, row_patches, view_factors, view_factors_of_rows, Grouping, ViewFactorOptions,
+        area_rows, row_patches, view_factors, view_factors_of_rows, Grouping, ViewFactorConfig,
     };
     use rad_pipeline::Enclosure;
     let scene = Scene::new(scenes::cornell_box(120.0)).unwrap();
@@ -123,10 +123,10 @@ fn view_factors_of_shared_rows_are_one_runs_to_the_bit() {
         (Grouping::Polygon, Enclosure::Reciprocal),
         (Grouping::Patch, Enclosure::Raw),
     ] {
-        let opts = ViewFactorOptions {
+        let opts = ViewFactorConfig {
             by,
             enclosure,
-            ..ViewFactorOptions::for_scene(&scene)
+            ..ViewFactorConfig::for_scene(&scene)
         };
         let whole = view_factors(&scene, &hemi, &opts, &|_| {}).unwrap();
         let ids = row_patches(&scene);
@@ -206,9 +206,9 @@ fn processes_in_threads_share_rows_and_solves_as_one_process_does() {
     // Solves: stored (gathered on the first), matrix-free (every process shoots).
     let method = methods()[0];
     for storage in [Storage::Stored, Storage::MatrixFree] {
-        let opts = SolveOptions {
+        let opts = SceneSolveConfig {
             storage: Some(storage),
-            ..SolveOptions::default()
+            ..SceneSolveConfig::default()
         };
         let (want, _, _) = solve_scene(&scene, &hemi, method, &opts, &|_| {}).unwrap();
         for size in [2, 4] {
@@ -226,10 +226,10 @@ fn processes_in_threads_share_rows_and_solves_as_one_process_does() {
 fn a_jacobi_solve_shared_by_rows_is_the_same_whatever_the_processes() {
     let hemi = Hemisphere::new(HemisphereConfig::exact(8, 32)).unwrap();
     for (scene, method) in [(cornell(), methods()[0]), (cornell(), methods()[1])] {
-        let opts = SolveOptions {
+        let opts = SceneSolveConfig {
             solver: Solver::Jacobi,
             storage: Some(Storage::Stored),
-            ..SolveOptions::default()
+            ..SceneSolveConfig::default()
         };
         let (want, solved, _) = solve_scene(&scene, &hemi, method, &opts, &|_| {}).unwrap();
         assert!(solved.solution.report.converged);
@@ -254,9 +254,9 @@ fn a_jacobi_solve_shared_by_rows_is_the_same_whatever_the_processes() {
         }
         // Gauss-Seidel on the pair storage, one process: the same radiosities within
         // the tolerances, and the same input asymmetry to the bit.
-        let gs = SolveOptions {
+        let gs = SceneSolveConfig {
             storage: Some(Storage::Stored),
-            ..SolveOptions::default()
+            ..SceneSolveConfig::default()
         };
         let (other, by_pairs, _) = solve_scene(&scene, &hemi, method, &gs, &|_| {}).unwrap();
         let top = other
@@ -285,14 +285,14 @@ fn processes_of_different_runs_or_a_failing_one_end_every_process_with_an_error(
     let hemi = Hemisphere::new(HemisphereConfig::exact(8, 32)).unwrap();
     let method = methods()[0];
     let got = in_threads(2, |peers| {
-        let opts = SolveOptions {
+        let opts = SceneSolveConfig {
             solver: Solver::Jacobi,
             storage: Some(Storage::Stored),
             config: rad_pipeline::SolveConfig {
                 tolerance: if peers.rank() == 0 { 1e-9 } else { 1e-6 },
                 ..Default::default()
             },
-            ..SolveOptions::default()
+            ..SceneSolveConfig::default()
         };
         solve_scene_shared(&scene, &hemi, method, &opts, &|_| {}, peers)
             .err()

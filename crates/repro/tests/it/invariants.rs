@@ -102,16 +102,16 @@ fn all_rows_matrix(scene: &Scene, res: (u32, u32)) -> rad_solver::FormFactors {
 
 #[test]
 fn furnace_and_energy_balance_on_real_rows() {
-    use rad_pipeline::solve::{solve, surfaces, SolveOptions};
+    use rad_pipeline::solve::{solve, surfaces, SceneSolveConfig};
     use rad_solver::{SolveConfig, Solver, Surfaces};
-    let opts = |solver| SolveOptions {
+    let opts = |solver| SceneSolveConfig {
         solver,
         config: SolveConfig {
             tolerance: 1e-10,
             ..SolveConfig::default()
         },
         reciprocal: true,
-        ..SolveOptions::default()
+        ..SceneSolveConfig::default()
     };
     // The cube, closed: the furnace gives B = E / (1 - rho) = 2 everywhere.
     let cube = Scene::new(rad_geometry::scenes::cube(10)).unwrap();

@@ -5,7 +5,7 @@ use glam::Vec3;
 use rad_core::Rgb;
 use rad_geometry::{Material, PatchGrid, PolygonDesc, Scene, SceneDesc};
 use rad_pipeline::viewfactors::{
-    view_factors, write_view_factors, Grouping, MatrixFormat, ViewFactorOptions, ViewFactorRun,
+    view_factors, write_view_factors, Grouping, MatrixFormat, ViewFactorConfig, ViewFactorRun,
     ViewFactors, DEFAULT_ORIGINS,
 };
 use rad_pipeline::{Enclosure, Hemisphere, HemisphereConfig};
@@ -69,11 +69,11 @@ fn hemi() -> Hemisphere {
 }
 
 fn run(scene: &Scene, origins: u32, enclosure: Enclosure, by: Grouping) -> ViewFactors {
-    let opts = ViewFactorOptions {
+    let opts = ViewFactorConfig {
         by,
         origins,
         enclosure,
-        ..ViewFactorOptions::for_scene(scene)
+        ..ViewFactorConfig::for_scene(scene)
     };
     view_factors(scene, &hemi(), &opts, &|_| {}).unwrap()
 }
@@ -189,10 +189,10 @@ fn closed_enclosures_are_exactly_reciprocal_and_closed() {
 
 #[test]
 fn closed_refuses_an_open_scene_naming_the_rows_that_leak() {
-    let opts = ViewFactorOptions {
+    let opts = ViewFactorConfig {
         enclosure: Enclosure::Closed,
         origins: 1,
-        ..ViewFactorOptions::for_scene(&parallel())
+        ..ViewFactorConfig::for_scene(&parallel())
     };
     let err = view_factors(&parallel(), &hemi(), &opts, &|_| {})
         .unwrap_err()
@@ -209,9 +209,9 @@ fn by_group_without_a_group_is_an_error_naming_the_polygon() {
         poly("bottom", square(0.0, true), GRID, Some("floor")),
         poly("top", square(1.0, false), GRID, None),
     ]);
-    let opts = ViewFactorOptions {
+    let opts = ViewFactorConfig {
         by: Grouping::Group,
-        ..ViewFactorOptions::for_scene(&s)
+        ..ViewFactorConfig::for_scene(&s)
     };
     let err = view_factors(&s, &hemi(), &opts, &|_| {})
         .unwrap_err()
@@ -220,9 +220,9 @@ fn by_group_without_a_group_is_an_error_naming_the_polygon() {
         err.contains("polygon 1 (\"top\") belongs to no group"),
         "{err}"
     );
-    let opts = ViewFactorOptions {
+    let opts = ViewFactorConfig {
         origins: 0,
-        ..ViewFactorOptions::for_scene(&s)
+        ..ViewFactorConfig::for_scene(&s)
     };
     let err = view_factors(&s, &hemi(), &opts, &|_| {})
         .unwrap_err()
@@ -404,10 +404,10 @@ fn the_binary_file_streams_round_trips_and_refuses_truncation() {
         scene_hash: "0".into(),
         resolution: (180, 720),
     };
-    let opts = ViewFactorOptions {
+    let opts = ViewFactorConfig {
         by: Grouping::Patch,
         origins: 2,
-        ..ViewFactorOptions::for_scene(&scene)
+        ..ViewFactorConfig::for_scene(&scene)
     };
     // Streamed as made, and written from the held matrix: the same bytes.
     let mut streamed = Vec::new();
@@ -477,9 +477,9 @@ S   2    8   7   6   5   0   0  0.90  top
 End of data
 ";
 
-fn vs3_options(file: &rad_pipeline::SceneFile) -> ViewFactorOptions {
+fn vs3_options(file: &rad_pipeline::SceneFile) -> ViewFactorConfig {
     let c = file.view3d.as_ref().unwrap();
-    ViewFactorOptions {
+    ViewFactorConfig {
         by: Grouping::Group,
         enclosure: if c.encl {
             Enclosure::Closed
@@ -487,7 +487,7 @@ fn vs3_options(file: &rad_pipeline::SceneFile) -> ViewFactorOptions {
             Enclosure::Raw
         },
         script_f: c.emit,
-        ..ViewFactorOptions::for_scene(&file.scene)
+        ..ViewFactorConfig::for_scene(&file.scene)
     }
 }
 

@@ -1,0 +1,127 @@
+//! `coherad render`: an image of a solution from the scene's camera or one given by
+//! flags (32-bit float EXR, optional PNG preview).
+
+use crate::context::Ctx;
+use crate::flags::RenderArgs;
+use crate::{Error, Outcome};
+use rad_pipeline::images::{radiance_of, render_to_files};
+use rad_pipeline::solve::read_solution;
+use rad_pipeline::{Camera, RenderConfig, SceneFile, Vec3, View};
+
+/// `coherad render`: the solution's image from the scene's camera or the flags'.
+pub fn run(ctx: &Ctx, args: &RenderArgs) -> Result<Outcome, Error> {
+    let scene = ctx.load(&args.scene)?;
+    let RenderArgs {
+        scene: _,
+        solution,
+        out,
+        eye,
+        look_at,
+        up,
+        fov,
+        radiance,
+        png,
+        width,
+        height,
+        samples,
+        shading,
+        exposure,
+    } = args;
+    if let Some(x) = exposure {
+        if png.is_none() {
+            return Err(Error::Flags(
+                "--exposure sets the PNG preview's exposure: give --png too".into(),
+            ));
+        }
+        if !(x.is_finite() && *x > 0.0) {
+            return Err(Error::Flags(format!(
+                "--exposure must be finite and > 0, not {x}"
+            )));
+        }
+    }
+    let flags = CameraFlags {
+        eye: eye.as_deref(),
+        look_at: look_at.as_deref(),
+        up: up.as_deref(),
+        fov: *fov,
+    };
+    let camera = camera(&scene, &flags)?;
+    let view = View::new(&camera, *width, *height).map_err(rad_pipeline::Error::from)?;
+    let mut b = read_solution(solution, &scene)?;
+    if *radiance {
+        b = radiance_of(&b);
+    }
+    let config = RenderConfig {
+        samples: *samples,
+        shading: shading.shading(),
+    };
+    render_to_files(
+        &scene.scene,
+        &b,
+        &view,
+        &config,
+        out,
+        png.as_deref(),
+        *exposure,
+    )?;
+    Ok(Outcome::Done)
+}
+
+/// `coherad render`'s camera flags.
+struct CameraFlags<'a> {
+    eye: Option<&'a str>,
+    look_at: Option<&'a str>,
+    up: Option<&'a str>,
+    fov: Option<f32>,
+}
+
+/// A vector from "X,Y,Z".
+fn parse_vec3(flag: &str, text: &str) -> Result<[f32; 3], Error> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let values: Option<Vec<f32>> = parts
+        .iter()
+        .map(|p| p.parse::<f32>().ok().filter(|v| v.is_finite()))
+        .collect();
+    match values {
+        Some(v) if v.len() == 3 => Ok([v[0], v[1], v[2]]),
+        _ => Err(Error::Flags(format!(
+            "{flag} {text:?}: give three finite numbers X,Y,Z"
+        ))),
+    }
+}
+
+/// The camera of a render: the scene's, with whatever the flags override; a scene
+/// without one needs --eye and --look-at.
+fn camera(scene: &SceneFile, f: &CameraFlags) -> Result<Camera, Error> {
+    let own = scene.scene.camera().copied();
+    let given = |flag, t: Option<&str>| t.map(|t| parse_vec3(flag, t)).transpose();
+    let eye = given("--eye", f.eye)?;
+    let look_at = given("--look-at", f.look_at)?;
+    let up = given("--up", f.up)?;
+    let v = |a: [f32; 3]| Vec3::from_array(a);
+    let (position, target) = match (own, eye, look_at) {
+        (_, Some(e), Some(l)) => (v(e), v(l)),
+        (Some(c), e, l) => (e.map_or(c.position, v), l.map_or(c.look_at, v)),
+        (None, _, _) => {
+            return Err(Error::Flags(format!(
+            "{} has no camera: give --eye X,Y,Z and --look-at X,Y,Z (and --up, --fov if need be)",
+            scene.path.display()
+        )))
+        }
+    };
+    if let Some(x) = f.fov {
+        if !(x.is_finite() && x > 0.0 && x < 180.0) {
+            return Err(Error::Flags(format!("--fov {x}: give degrees in (0, 180)")));
+        }
+    }
+    Ok(Camera {
+        position,
+        look_at: target,
+        up: up.map(v).or(own.map(|c| c.up)).unwrap_or(Vec3::Y),
+        fov_y: f
+            .fov
+            .map(f32::to_radians)
+            .or(own.map(|c| c.fov_y))
+            .unwrap_or(50f32.to_radians()),
+    })
+}

@@ -1,0 +1,147 @@
+//! `coherad solve`: every row made (exact or estimated), held as the memory limit
+//! allows, solved; the solution file written, its energy balance said.
+
+use crate::context::{emit, hemisphere, Ctx};
+use crate::flags::{Method, SolveArgs};
+use crate::report::{say, warning, Report};
+use crate::{Error, Outcome, EXIT_NOT_CONVERGED};
+use indicatif::ProgressBar;
+use rad_pipeline::share::Peers;
+use rad_pipeline::solve::{solve_scene_shared, SceneSolveConfig, Solved};
+use rad_pipeline::{
+    parse_size, pick_method, settle_method, Progress, SceneFile, SolveRequest, Storage,
+};
+
+pub fn run(ctx: &Ctx, args: &SolveArgs) -> Result<Outcome, Error> {
+    let scene = ctx.load(&args.scene)?;
+    let picked = pick_method(&scene, args.rows.choice(Method::Auto), args.rows.caster)?;
+    ctx.report.picked(&picked, scene.scene.patches().len());
+    let request = SolveRequest {
+        solver: args.solver.solver(),
+        tolerance: args.tolerance,
+        max_iterations: args.max_iterations,
+        reciprocal: !args.raw,
+        storage: args.storage.storage(),
+        memory_limit: Some(parse_size(&args.memory_limit)?),
+        temp_dir: args.temp_dir.clone(),
+    };
+    let config = request.config()?;
+    let hemi = hemisphere(&args.resolution)?;
+    warn_if_nothing_emits(ctx.report, &scene);
+    let (method, changed) = settle_method(&scene, &hemi, &picked, &config, ctx.ranks.size())?;
+    if changed {
+        say!(
+            ctx.report,
+            "method auto: exact rows after all (matrix-free solving, asked for or the only storage that fits, casts each shooter's row)"
+        );
+    }
+    let n = scene.scene.patches().len();
+    let bar = ctx.report.row_bar(&hemi, method, n);
+    let progress = |p| show(&bar, n, p);
+    let solved = solve_scene_shared(&scene, &hemi, method, &config, &progress, ctx.ranks)?;
+    bar.finish_and_clear();
+    // (Rank 0 speaks for the run and writes its file.)
+    let Some((file, solved, stats)) = solved else {
+        return Ok(Outcome::Done);
+    };
+    ctx.report.estimates(method, &stats);
+    report_storage(ctx.report, &solved, &config);
+    if let Some(rec) = solved.reciprocity.filter(|r| !r.converged) {
+        warning!(
+            ctx.report,
+            "warning: the reciprocal scaling stopped after {} products with rows off their sums by up to {:.1e}; energy is conserved only to that",
+            rec.iterations,
+            rec.max_row_sum_error
+        );
+    }
+    let r = &solved.solution.report;
+    say!(
+        ctx.report,
+        "{} after {} iterations, residual {:.1e}; energy imbalance {:.1e}",
+        if r.converged {
+            "converged"
+        } else {
+            "NOT converged"
+        },
+        r.iterations,
+        r.residual,
+        solved.balance.relative_imbalance
+    );
+    let text = serde_json::to_string_pretty(&file).map_err(|e| rad_pipeline::Error::Encode {
+        what: "the solution file",
+        reason: e.to_string(),
+    })?;
+    emit(Some(&args.out), |w| w.write_all(text.as_bytes()))?;
+    if r.converged {
+        return Ok(Outcome::Done);
+    }
+    warning!(
+        ctx.report,
+        "warning: the solve did not converge (residual {:.1e} after {} iterations); {} is written, the exit code is {EXIT_NOT_CONVERGED}",
+        r.residual,
+        r.iterations,
+        args.out.display()
+    );
+    Ok(Outcome::NotConverged)
+}
+
+/// A solve's progress on its bar: rows made, then sweeps or shots.
+fn show(bar: &ProgressBar, n: usize, p: Progress) {
+    match p {
+        Progress::Rows(k) => {
+            bar.set_position(k as u64);
+            if k == n {
+                bar.set_message("rows done; solving");
+            }
+        }
+        Progress::Sweeps { sweeps, residual } => {
+            bar.set_message(format!("jacobi: {sweeps} sweeps, residual {residual:.2e}"));
+        }
+        Progress::Shots { shots, unshot } => {
+            bar.set_position((n as u64).min(shots as u64));
+            bar.set_message(format!(
+                "shooting: {shots} shots, {:.2e} of the power unshot or ungathered",
+                unshot
+            ));
+        }
+    }
+}
+
+/// Warns of a scene in which nothing emits (every radiosity would be 0).
+fn warn_if_nothing_emits(report: &Report, scene: &SceneFile) {
+    let sc = &scene.scene;
+    if (0..sc.patches().len()).all(|p| sc.patch_material(p as u32).emission.0 == [0.0; 3]) {
+        warning!(
+            report,
+            "warning: no polygon emits light (every material's emission is 0): every radiosity will be 0; give a material an \"emission\" (or use --materials)"
+        );
+    }
+}
+
+/// What an out-of-core or matrix-free solve held and did.
+fn report_storage(report: &Report, solved: &Solved, config: &SceneSolveConfig) {
+    let mib = |bytes: f64| bytes / (1u64 << 20) as f64;
+    let m = &solved.matrix;
+    if m.storage == Storage::OutOfCore.name() {
+        say!(
+            report,
+            "out-of-core: rows written to a temporary file in {} ({:.0} MiB, removed); {} shots, {} rows read back, {} kept ({:.0} MiB)",
+            config.temp_dir().display(),
+            mib(m.disk_bytes as f64),
+            solved.solution.report.iterations,
+            m.rows_made,
+            m.cached_rows,
+            mib(m.bytes as f64)
+        );
+    }
+    if m.storage == Storage::MatrixFree.name() {
+        say!(
+            report,
+            "matrix-free: {} shots, {} rows made, {} kept ({:.0} MiB)",
+            solved.solution.report.iterations,
+            m.rows_made,
+            m.cached_rows,
+            mib(m.bytes as f64)
+        );
+    }
+}

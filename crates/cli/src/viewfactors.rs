@@ -1,0 +1,186 @@
+//! `coherad viewfactors`: surface-to-surface view factors under an enclosure rule, in
+//! one of five formats; shared among MPI ranks under `mpirun`, or (patch to patch, raw,
+//! binary) written as the rows are made, never held.
+
+use crate::context::{emit, hemisphere, Ctx};
+use crate::flags::{matrix_format, ViewfactorsArgs};
+use crate::report::{say, warning, Report};
+use crate::{Error, Outcome};
+use indicatif::ProgressBar;
+use rad_pipeline::output::write_atomic;
+use rad_pipeline::share::Peers;
+use rad_pipeline::viewfactors::{
+    area_rows, check_format, row_patches, stream_patch_matrix, view_factors, view_factors_of_rows,
+    write_view_factors, MatrixFormat, ViewFactorConfig, ViewFactorRun, ViewFactors,
+};
+use rad_pipeline::{EstimateStats, Hemisphere, RowMethod, SceneFile, ViewFactorRequest};
+use std::path::Path;
+
+pub fn run(ctx: &Ctx, args: &ViewfactorsArgs) -> Result<Outcome, Error> {
+    let scene = ctx.load(&args.scene)?;
+    let request = ViewFactorRequest {
+        by: args.by.map(|b| b.grouping()),
+        origins: Some(args.origins),
+        enclosure: args.enclosure.map(|e| e.enclosure()),
+        script_f: args.script_f.then_some(true),
+        caster: args.caster,
+    };
+    if let Some(c) = scene.view3d.as_ref().filter(|c| !c.ignored.is_empty()) {
+        say!(
+            ctx.report,
+            "note: View3D options of its own integration, not used here: {}",
+            c.ignored.join(" ")
+        );
+    }
+    let format = matrix_format(args.format, args.out.as_deref());
+    let out = args.out.as_deref();
+    let hemi = hemisphere(&args.resolution)?;
+    let (config, n_surfaces) = request.config(&scene)?;
+    check_format(format, n_surfaces)?;
+    if format == MatrixFormat::Bin && out.is_none() {
+        return Err(Error::Flags(
+            "--format bin writes a binary file: give --out FILE.bin".into(),
+        ));
+    }
+    let bar = bar(ctx.report, &scene, &hemi, &config);
+    let run = ViewFactorRun {
+        scene: scene.path.display().to_string(),
+        scene_hash: scene.hash_text(),
+        resolution: (hemi.n_theta() as u32, hemi.n_phi() as u32),
+    };
+    if ctx.ranks.size() > 1 {
+        return shared(ctx, &scene, &hemi, &config, &bar, (&run, format, out));
+    }
+    if let (true, Some(path)) = (config.streams_to(format), out) {
+        return streamed(ctx.report, &scene, &hemi, &config, &bar, &run, path);
+    }
+    let progress = |n: usize| bar.set_position(n as u64);
+    let vf = view_factors(&scene.scene, &hemi, &config, &progress)?;
+    bar.finish_and_clear();
+    report_and_write(ctx.report, &vf, &run, format, out)
+}
+
+/// A bar over the patches, shown on long jobs.
+fn bar(report: &Report, scene: &SceneFile, hemi: &Hemisphere, c: &ViewFactorConfig) -> ProgressBar {
+    let n_patches = scene.scene.patches().len();
+    let per_patch = u64::from(c.origins).pow(2);
+    let rays = n_patches as u64 * per_patch * hemi.n_cells() as u64;
+    let message = format!(
+        "view factors {}x{}, {per_patch} hemispheres a patch",
+        hemi.n_theta(),
+        hemi.n_phi()
+    );
+    report.bar(n_patches, rays, "patches", message)
+}
+
+/// Shared among ranks: each its patches' rows, gathered on rank 0 (whole: the streaming
+/// path is one process's).
+fn shared(
+    ctx: &Ctx,
+    scene: &SceneFile,
+    hemi: &Hemisphere,
+    config: &ViewFactorConfig,
+    bar: &ProgressBar,
+    (run, format, out): (&ViewFactorRun, MatrixFormat, Option<&Path>),
+) -> Result<Outcome, Error> {
+    let scene_ = &scene.scene;
+    let ids = row_patches(scene_);
+    // (Every patch costs origins² hemispheres alike: exact rows' units.)
+    let method = RowMethod::Exact {
+        caster: config.caster,
+    };
+    let what = format!("viewfactors {}x{} {config:?}", hemi.n_theta(), hemi.n_phi());
+    let make = |patches: &[u32], progress: &(dyn Fn(usize) + Sync)| {
+        let rows = area_rows(scene_, hemi, config, patches, progress)?;
+        Ok(rad_pipeline::Rows {
+            method,
+            sources: vec![None; rows.len()],
+            stats: EstimateStats::default(),
+            rows,
+        })
+    };
+    let Some(made) = ctx.shared_rows(scene, method, &ids, &what, bar, &make)? else {
+        return Ok(Outcome::Done);
+    };
+    let vf = view_factors_of_rows(scene_, config, made.rows)?;
+    report_and_write(ctx.report, &vf, run, format, out)
+}
+
+/// Patch to patch, raw, binary: written as the rows are made, never held.
+fn streamed(
+    report: &Report,
+    scene: &SceneFile,
+    hemi: &Hemisphere,
+    config: &ViewFactorConfig,
+    bar: &ProgressBar,
+    run: &ViewFactorRun,
+    path: &Path,
+) -> Result<Outcome, Error> {
+    let progress = |n: usize| bar.set_position(n as u64);
+    let mut done = None;
+    write_atomic(path, |w| {
+        let s = stream_patch_matrix(&scene.scene, hemi, config, run, w, &progress)
+            .map_err(|e| std::io::Error::other(e.to_string()))?;
+        done = Some(s);
+        Ok(())
+    })?;
+    bar.finish_and_clear();
+    let done = done.expect("written");
+    say!(
+        report,
+        "{} rows, {} entries written as made; {} rows lose form factor to rays leaving the scene, {} see polygons from behind",
+        done.n_patches,
+        done.entries,
+        done.escaping_rows,
+        done.back_rows
+    );
+    Ok(Outcome::Done)
+}
+
+/// Notes what view factors lose (rays leaving the scene, backs), reports the enclosure
+/// rule's changes, and writes them.
+fn report_and_write(
+    report: &Report,
+    vf: &ViewFactors,
+    run: &ViewFactorRun,
+    format: MatrixFormat,
+    out: Option<&Path>,
+) -> Result<Outcome, Error> {
+    let leaking = (0..vf.names.len()).filter(|&i| vf.escaped[i] > 0.0).count();
+    if leaking > 0 {
+        say!(
+            report,
+            "note: {leaking} of {} surfaces lose form factor to rays that leave the scene (the scene is not closed)",
+            vf.names.len()
+        );
+    }
+    let backs: Vec<&str> = (0..vf.names.len())
+        .filter(|&i| vf.back[i] > 0.0)
+        .map(|i| vf.names[i].as_str())
+        .collect();
+    if !backs.is_empty() {
+        warning!(
+            report,
+            "warning: {} surfaces see polygons from behind (first: {:?}); those rays count as \"back\", in no factor",
+            backs.len(),
+            backs[0]
+        );
+    }
+    let r = &vf.report;
+    say!(
+        report,
+        "enclosure {}: rows' |1 - sum| max {:.3e} (median {:.3e}), reciprocity error max {:.3e} (median {:.3e}); as computed: {:.3e} ({:.3e}) and {:.3e} ({:.3e}); largest change {:.3e}",
+        vf.enclosure.name(),
+        r.fixed.row_sum.max,
+        r.fixed.row_sum.median,
+        r.fixed.reciprocity.max,
+        r.fixed.reciprocity.median,
+        r.raw.row_sum.max,
+        r.raw.row_sum.median,
+        r.raw.reciprocity.max,
+        r.raw.reciprocity.median,
+        r.max_change
+    );
+    emit(out, |w| write_view_factors(w, vf, run, format))?;
+    Ok(Outcome::Done)
+}
