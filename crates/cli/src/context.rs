@@ -2,10 +2,10 @@
 //! report; the scene as the global flags load it; output to a file (atomically) or to
 //! standard output; rows made by this process or shared among MPI ranks.
 
+use crate::exit::Error;
 use crate::flags::Cli;
 use crate::ranks::Ranks;
 use crate::report::{say, warning, Report};
-use crate::Error;
 use indicatif::ProgressBar;
 use rad_pipeline::output::write_atomic;
 use rad_pipeline::share::{self, Peers};

@@ -1,9 +1,9 @@
 //! `coherad export`: a scene, and a solution baked into vertex colours, as glTF or PLY.
 
 use crate::context::Ctx;
+use crate::exit::{Error, Outcome};
 use crate::flags::ExportArgs;
 use crate::report::say;
-use crate::{Error, Outcome};
 use rad_pipeline::export::{export, ExportFormat};
 use rad_pipeline::solve::read_solution;
 

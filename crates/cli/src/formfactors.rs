@@ -2,9 +2,9 @@
 //! ranks when run under `mpirun`.
 
 use crate::context::{emit, hemisphere, Ctx};
+use crate::exit::{Error, Outcome};
 use crate::flags::{FormfactorsArgs, Method};
 use crate::report::warning;
-use crate::{Error, Outcome};
 use rad_pipeline::output::{write_row_json, write_rows_footer, write_rows_header};
 use rad_pipeline::{parse_patch_list, pick_method};
 

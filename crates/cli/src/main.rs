@@ -4,14 +4,16 @@
 //! A thin map over `rad-pipeline`: [`flags`] holds every flag (clap) and what it names
 //! in the pipeline's terms; one module a command ([`patches`], [`formfactors`],
 //! [`viewfactors`], [`solve`], [`render`], [`export`]), each a `run` that returns an
-//! [`Outcome`] or a typed [`Error`]; [`context`] loads scenes and writes outputs;
-//! [`report`] holds notes, warnings and progress bars. What the binary and the Python
+//! [`exit::Outcome`] or a typed [`exit::Error`] ([`exit`]: the exit codes);
+//! [`context`] loads scenes and writes outputs; [`report`] holds notes, warnings and
+//! progress bars. What the binary and the Python
 //! package both decide (the method and auto's pick, a solve's and view factors'
 //! settings) is the pipeline's (`rad_pipeline::{pick_method, SolveRequest, ...}`).
 //! Exit codes: 0 done, 1 an error, 2 a usage error (clap's), 3 a solve that did not
 //! converge (its file written all the same).
 
 mod context;
+mod exit;
 mod export;
 mod flags;
 mod formfactors;
@@ -31,42 +33,12 @@ mod ranks;
 
 use clap::Parser;
 use context::Ctx;
+use exit::{Error, Outcome, EXIT_ERROR, EXIT_NOT_CONVERGED, EXIT_USAGE};
 use flags::{Cli, Command};
 use rad_pipeline::share::Peers;
 use ranks::Ranks;
 use report::Report;
 use std::process::ExitCode;
-
-const EXIT_ERROR: u8 = 1;
-const EXIT_USAGE: u8 = 2;
-const EXIT_NOT_CONVERGED: u8 = 3;
-
-/// How a command ended without an error.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Outcome {
-    Done,
-    /// A solve stopped before it converged (its file is written).
-    NotConverged,
-}
-
-/// What ends a command with exit code 1.
-#[derive(Debug, thiserror::Error)]
-pub enum Error {
-    #[error(transparent)]
-    Pipeline(#[from] rad_pipeline::Error),
-    /// A flag value the binary checks itself (the camera, the PNG's exposure), or a
-    /// combination of flags that cannot be run.
-    #[error("{0}")]
-    Flags(String),
-    #[error("cannot write to standard output: {0}")]
-    Stdout(std::io::Error),
-    /// A bug: every bad input is an error of its own.
-    #[error("internal error (a panic: {0}); please report it")]
-    Panic(String),
-    /// Another rank's error, as the ranks' gather gives it.
-    #[error("{0}")]
-    Peers(String),
-}
 
 fn main() -> ExitCode {
     ExitCode::from(run(&Cli::parse()))

@@ -1,8 +1,8 @@
 //! `coherad patches`: every patch of a scene (JSON).
 
 use crate::context::{emit, Ctx};
+use crate::exit::{Error, Outcome};
 use crate::flags::PatchesArgs;
-use crate::{Error, Outcome};
 use rad_pipeline::output::write_patches_json;
 
 pub fn run(ctx: &Ctx, args: &PatchesArgs) -> Result<Outcome, Error> {

@@ -2,8 +2,8 @@
 //! flags (32-bit float EXR, optional PNG preview).
 
 use crate::context::Ctx;
+use crate::exit::{Error, Outcome};
 use crate::flags::RenderArgs;
-use crate::{Error, Outcome};
 use rad_pipeline::images::{radiance_of, render_to_files};
 use rad_pipeline::solve::read_solution;
 use rad_pipeline::{Camera, RenderConfig, SceneFile, Vec3, View};

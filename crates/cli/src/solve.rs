@@ -2,9 +2,9 @@
 //! allows, solved; the solution file written, its energy balance said.
 
 use crate::context::{emit, hemisphere, Ctx};
+use crate::exit::{Error, Outcome, EXIT_NOT_CONVERGED};
 use crate::flags::{Method, SolveArgs};
 use crate::report::{say, warning, Report};
-use crate::{Error, Outcome, EXIT_NOT_CONVERGED};
 use indicatif::ProgressBar;
 use rad_pipeline::share::Peers;
 use rad_pipeline::solve::{solve_scene_shared, SceneSolveConfig, Solved};

@@ -3,9 +3,9 @@
 //! binary) written as the rows are made, never held.
 
 use crate::context::{emit, hemisphere, Ctx};
+use crate::exit::{Error, Outcome};
 use crate::flags::{matrix_format, ViewfactorsArgs};
 use crate::report::{say, warning, Report};
-use crate::{Error, Outcome};
 use indicatif::ProgressBar;
 use rad_pipeline::output::write_atomic;
 use rad_pipeline::share::Peers;

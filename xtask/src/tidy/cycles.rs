@@ -185,17 +185,47 @@ fn use_statements(code: &str) -> Vec<(bool, String, std::ops::Range<usize>)> {
 fn read_crate(src: &Path) -> BTreeMap<ModPath, Module> {
     let mut files = Vec::new();
     rust_files(src, &mut files);
-    let mut texts = BTreeMap::new();
+    // Modules declared with `#[path = "file.rs"] mod name;` (in the crate's root) take
+    // their declared name; two files of one name (chosen by cfg) are read as one.
+    let mut renamed: BTreeMap<String, String> = BTreeMap::new();
+    for root_file in ["lib.rs", "main.rs"] {
+        let text = std::fs::read_to_string(src.join(root_file)).unwrap_or_default();
+        let mut lines = text.lines().map(str::trim).peekable();
+        while let Some(line) = lines.next() {
+            let Some(file) = line
+                .strip_prefix("#[path = \"")
+                .and_then(|l| l.strip_suffix("\"]"))
+            else {
+                continue;
+            };
+            while lines.peek().is_some_and(|l| l.starts_with("#[")) {
+                lines.next();
+            }
+            if let Some(name) = lines
+                .next()
+                .and_then(|l| l.strip_prefix("mod "))
+                .and_then(|l| l.strip_suffix(';'))
+            {
+                renamed.insert(file.trim_end_matches(".rs").to_string(), name.to_string());
+            }
+        }
+    }
+    let mut texts: BTreeMap<ModPath, String> = BTreeMap::new();
     for f in files {
-        let Some(path) = module_path(src, &f) else {
+        let Some(mut path) = module_path(src, &f) else {
             continue;
         };
+        if let [one] = path.as_slice() {
+            if let Some(name) = renamed.get(one) {
+                path = vec![name.clone()];
+            }
+        }
         if path.last().is_some_and(|l| l == "tests") {
             continue;
         }
         let text = std::fs::read_to_string(&f).unwrap();
         let code: String = code_only(without_tests(&text)).into_iter().collect();
-        texts.insert(path, code);
+        texts.entry(path).or_default().push_str(&code);
     }
     let paths: Vec<ModPath> = texts.keys().cloned().collect();
     let mut modules = BTreeMap::new();
