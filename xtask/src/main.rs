@@ -1,34 +1,58 @@
-//! The harness: `cargo xtask reproduce [--quick] [--out DIR] [--threads N]` runs the
-//! experiments and writes results/; `cargo xtask solves [--quick]` runs its solve
-//! section alone (`coherad solve` on bench scenes, timed, peak memory measured);
-//! `cargo xtask scenes` rewrites bench-scenes/ from the builders.
+//! The harness. `cargo xtask reproduce [--quick]` reproduces the report (the cube's
+//! accuracy, estimation's error, Tables 1 and 2, figures 7 to 9, the report's solves)
+//! into results/; `cargo xtask bench [--quick] [--only SECTIONS]` runs the extended
+//! measurements (scaling, viewfactors, ranks, meshes, solves) into results/; both
+//! rewrite the README's figures table when they write results/. `cargo xtask scenes`
+//! rewrites bench-scenes/ from the builders.
 
+mod figures;
 mod plot;
+mod provenance;
 mod reproduce;
+mod scenes;
 mod solves;
 #[cfg(test)]
 mod tidy;
 
 use anyhow::{bail, Context, Result};
-use std::path::PathBuf;
+use rad_pipeline::output::write_atomic;
+use std::path::{Path, PathBuf};
 
 fn usage() -> &'static str {
-    "usage: cargo xtask reproduce [--quick] [--out DIR] [--threads N]\n       cargo xtask solves [--quick] [--out DIR]\n       cargo xtask scenes [--out DIR]"
+    "usage: cargo xtask reproduce [--quick] [--out DIR] [--threads N]\n       cargo xtask bench [--quick] [--only scaling,viewfactors,ranks,meshes,solves] [--out DIR] [--threads N]\n       cargo xtask scenes [--out DIR]"
 }
 
-fn main() -> Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let Some(cmd) = args.first() else {
-        bail!("{}", usage())
+/// The command line, read by hand (a harness needs no more).
+struct Args {
+    quick: bool,
+    out: Option<PathBuf>,
+    threads: Option<usize>,
+    only: Vec<String>,
+}
+
+fn parse(rest: &[String]) -> Result<Option<Args>> {
+    let mut a = Args {
+        quick: false,
+        out: None,
+        threads: None,
+        only: Vec::new(),
     };
-    let mut quick = false;
-    let mut out: Option<PathBuf> = None;
-    let mut threads: Option<usize> = None;
-    let mut rest = args[1..].iter();
-    while let Some(a) = rest.next() {
-        match a.as_str() {
-            "--quick" => quick = true,
-            "--out" => out = Some(rest.next().context("--out needs a directory")?.into()),
+    let mut rest = rest.iter();
+    while let Some(flag) = rest.next() {
+        match flag.as_str() {
+            "--quick" => a.quick = true,
+            "--out" => a.out = Some(rest.next().context("--out needs a directory")?.into()),
+            "--only" => {
+                let list = rest.next().context("--only needs a list of sections")?;
+                a.only = list.split(',').map(|s| s.trim().to_string()).collect();
+                let known = ["scaling", "viewfactors", "ranks", "meshes", "solves"];
+                if let Some(bad) = a.only.iter().find(|s| !known.contains(&s.as_str())) {
+                    bail!(
+                        "--only: no section {bad:?} (sections: {})",
+                        known.join(", ")
+                    );
+                }
+            }
             "--threads" => {
                 let n: usize = rest
                     .next()
@@ -38,38 +62,67 @@ fn main() -> Result<()> {
                 if n == 0 {
                     bail!("--threads must be at least 1");
                 }
-                threads = Some(n);
+                a.threads = Some(n);
             }
-            "-h" | "--help" => {
-                println!("{}", usage());
-                return Ok(());
-            }
+            "-h" | "--help" => return Ok(None),
             other => bail!("unknown argument {other:?}\n{}", usage()),
         }
     }
-    if let Some(n) = threads {
+    Ok(Some(a))
+}
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let Some(cmd) = args.first() else {
+        bail!("{}", usage())
+    };
+    let Some(a) = parse(&args[1..])? else {
+        println!("{}", usage());
+        return Ok(());
+    };
+    if let Some(n) = a.threads {
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build_global()
             .context("cannot start the thread pool")?;
     }
     let root = workspace_root();
+    let quick_out = |name: &str| root.join("target").join(name);
+    let results = root.join("results");
     match cmd.as_str() {
         "reproduce" => {
-            let default = if quick {
-                root.join("target").join("repro-quick")
+            let default = if a.quick {
+                quick_out("repro-quick")
             } else {
-                root.join("results")
+                results
             };
-            reproduce::reproduce(quick, &out.unwrap_or(default), &root, &args)
+            reproduce::reproduce(a.quick, &a.out.unwrap_or(default), &root, &args)
         }
-        "solves" => {
-            let default = root.join("target").join("solves");
-            reproduce::solves_alone(quick, &out.unwrap_or(default), &root, &args)
+        "bench" => {
+            let default = if a.quick {
+                quick_out("bench-quick")
+            } else {
+                results
+            };
+            let out = a.out.unwrap_or(default);
+            reproduce::bench(a.quick, &a.only, &out, &root, &args)
         }
-        "scenes" => reproduce::write_scenes(&out.unwrap_or(root.join("bench-scenes"))),
+        "scenes" => scenes::write_scenes(&a.out.unwrap_or(root.join("bench-scenes"))),
         other => bail!("unknown command {other:?}\n{}", usage()),
     }
+}
+
+/// Writes `bytes` to `path` atomically, and says so.
+fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomic(path, |w| w.write_all(bytes))
+        .with_context(|| format!("writing {}", path.display()))?;
+    eprintln!("  wrote {}", path.display());
+    Ok(())
+}
+
+/// Writes `text` to `dir/name` atomically, and says so.
+fn write_text(dir: &Path, name: &str, text: &str) -> Result<()> {
+    write_file(&dir.join(name), text.as_bytes())
 }
 
 /// The workspace root: xtask's manifest directory's parent.

@@ -1,4 +1,4 @@
-//! The solve section: `coherad solve` on bench scenes as a user runs it (the scene and
+//! The solves as a user runs them: `coherad solve` on bench scenes as a user runs it (the scene and
 //! a resolution, nothing else but where a storage is named), each in a child process,
 //! its wall time and peak resident memory (the child's rusage from wait4: what
 //! `/usr/bin/time -v` reports as its maximum resident set size), and what its solution
@@ -11,15 +11,14 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// One solve: a bench scene, a resolution, and flags beyond them (none: the defaults).
-struct Case {
+pub struct Case {
     scene: &'static str,
     resolution: &'static str,
     flags: &'static [&'static str],
 }
 
-/// The quick form's solves (under a minute): every storage on the loft at a coarse
-/// resolution, and a mesh whose default method is estimated.
-const QUICK: &[Case] = &[
+/// The report's solves, quick (CI): its scenes at a coarse resolution.
+pub const REPORT_QUICK: &[Case] = &[
     Case {
         scene: "cornell.json",
         resolution: "24x96",
@@ -30,6 +29,25 @@ const QUICK: &[Case] = &[
         resolution: "24x96",
         flags: &[],
     },
+];
+
+/// The report's solves: the Cornell box and the loft at the report's resolution.
+pub const REPORT_FULL: &[Case] = &[
+    Case {
+        scene: "cornell.json",
+        resolution: "180x720",
+        flags: &[],
+    },
+    Case {
+        scene: "loft.json",
+        resolution: "180x720",
+        flags: &[],
+    },
+];
+
+/// The bench's solves, quick (under a minute): the other storages on the loft at a
+/// coarse resolution, and a mesh whose default method is estimated.
+pub const BENCH_QUICK: &[Case] = &[
     Case {
         scene: "loft.json",
         resolution: "24x96",
@@ -47,19 +65,9 @@ const QUICK: &[Case] = &[
     },
 ];
 
-/// The full form's: the bench scenes at the report's resolution, up to 115,200
-/// one-patch triangles (about 17 minutes of the two-core machine's time).
-const FULL: &[Case] = &[
-    Case {
-        scene: "cornell.json",
-        resolution: "180x720",
-        flags: &[],
-    },
-    Case {
-        scene: "loft.json",
-        resolution: "180x720",
-        flags: &[],
-    },
+/// The bench's large solves: the tessellated lofts at the report's resolution, up to
+/// 115,200 one-patch triangles (about 15 minutes of the two-core machine's time).
+pub const BENCH_FULL: &[Case] = &[
     Case {
         scene: "loft_triangles.json",
         resolution: "180x720",
@@ -95,12 +103,11 @@ pub struct Solved {
     pub disk_bytes: u64,
 }
 
-/// Runs the quick or full solves with the release `coherad` (built first if needed),
-/// their solution files in `work`, saying each on standard error.
-pub fn run(quick: bool, root: &Path, work: &Path) -> Result<Vec<Solved>> {
+/// Runs `cases` with the release `coherad` (built first if needed), their solution
+/// files in `work`, saying each on standard error.
+pub fn run(cases: &[Case], root: &Path, work: &Path) -> Result<Vec<Solved>> {
     let binary = coherad(root)?;
     std::fs::create_dir_all(work).with_context(|| format!("cannot create {}", work.display()))?;
-    let cases = if quick { QUICK } else { FULL };
     let mut out = Vec::with_capacity(cases.len());
     for (k, case) in cases.iter().enumerate() {
         let scene = root.join("bench-scenes").join(case.scene);
@@ -232,7 +239,7 @@ fn measured(binary: &Path, args: &[String], log: &Path) -> Result<(f64, i64)> {
     Ok((wall, usage.ru_maxrss))
 }
 
-/// solves.json: the provenance and every solve.
+/// A solve file (solves.json, solves_large.json): the provenance and every solve.
 pub fn json(provenance: &Provenance, solves: &[Solved]) -> String {
     #[derive(Serialize)]
     struct File<'a> {
@@ -245,10 +252,10 @@ pub fn json(provenance: &Provenance, solves: &[Solved]) -> String {
     s
 }
 
-/// The report's section: one line a solve.
-pub fn markdown(solves: &[Solved]) -> String {
-    let mut s = String::from(
-        "\n## Solves as a user runs them\n\n`coherad solve SCENE --resolution R` (storage named where given), each a child process of the harness: wall time and peak resident memory (wait4's rusage, as `/usr/bin/time -v` reports it), and what the solution file says (results/solves.json).\n\n| command | patches | method | storage | solver, iterations | energy imbalance | wall | peak resident |\n|---|---|---|---|---|---|---|---|\n",
+/// The report's section: one line a solve (their JSON in `file`).
+pub fn markdown(solves: &[Solved], file: &str) -> String {
+    let mut s = format!(
+        "\n## Solves as a user runs them\n\n`coherad solve SCENE --resolution R` (storage named where given), each a child process of the harness: wall time and peak resident memory (wait4's rusage, as `/usr/bin/time -v` reports it), and what the solution file says (results/{file}).\n\n| command | patches | method | storage | solver, iterations | energy imbalance | wall | peak resident |\n|---|---|---|---|---|---|---|---|\n",
     );
     for v in solves {
         s += &format!(

@@ -1,8 +1,9 @@
 //! The report's experiments, run on our scenes, and their tables (JSON and Markdown)
-//! for `cargo xtask reproduce`, on top of the pipeline (`rad-pipeline`), whose rows,
+//! for `cargo xtask reproduce` and `cargo xtask bench`, on top of the pipeline (`rad-pipeline`), whose rows,
 //! solves and writers they use. It computes; it never prints.
 
 pub mod accuracy;
+pub mod bench;
 pub mod closed_form;
 pub mod estimation;
 pub mod loft;
@@ -39,4 +40,6 @@ pub struct Provenance {
     pub threads: usize,
     pub profile: String,
     pub command: String,
+    /// The day of the run (UTC), YYYY-MM-DD.
+    pub date: String,
 }

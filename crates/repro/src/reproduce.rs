@@ -1,4 +1,5 @@
-//! `cargo xtask reproduce`: what runs at this stage, and the report it writes.
+//! `cargo xtask reproduce`: the report's experiments (the cube's accuracy, reciprocity,
+//! estimation's error, Tables 1 and 2, figures 7 to 9, the solves) and REPORT.md.
 
 use crate::accuracy::{cube_accuracy, AccuracyConfig, CubeAccuracy, NamedPatch};
 use crate::estimation::{
@@ -96,14 +97,6 @@ pub struct Reproduction {
     pub loft: LoftChecks,
     pub loft_seconds: f64,
     pub radiosity: crate::speedup::Radiosity,
-    /// Exact hemispheres as scenes grow (scaling.json).
-    pub scaling: crate::scaling::Scaling,
-    /// View factors against closed forms and at scale (viewfactors.json).
-    pub viewfactors: crate::viewfactors::ViewFactorResults,
-    /// Rows and solves shared among simulated processes (ranks.json).
-    pub ranks: crate::ranks::Ranks,
-    /// Estimation across polygons on the mesh scenes (meshes.json).
-    pub meshes: crate::meshes::MeshEstimation,
 }
 
 /// Runs the experiments; `progress(stage, step, of)` as they go.
@@ -127,16 +120,8 @@ pub fn run(
     let loft_seconds = t.elapsed().as_secs_f64();
     let estimation = estimation(quick, progress)?;
     let radiosity = crate::speedup::run(quick, progress)?;
-    let scaling = crate::scaling::run(quick, progress)?;
-    let viewfactors = crate::viewfactors::run(quick, progress)?;
-    let ranks = crate::ranks::run(quick, progress)?;
-    let meshes = crate::meshes::run(quick, progress)?;
     Ok(Reproduction {
-        ranks,
-        meshes,
         radiosity,
-        scaling,
-        viewfactors,
         estimation,
         quick,
         cube: cube_acc,
@@ -266,78 +251,6 @@ impl Reproduction {
             quick: self.quick,
             note: LOFT_NOTE,
             loft: &self.radiosity.loft,
-        };
-        serde_json::to_string_pretty(&r).expect("results serialise") + "\n"
-    }
-
-    /// scaling.json: ms a hemisphere against polygon count, every caster, every scene.
-    pub fn scaling_json(&self, provenance: &Provenance) -> String {
-        #[derive(Serialize)]
-        struct S<'a> {
-            provenance: &'a Provenance,
-            quick: bool,
-            note: &'static str,
-            scaling: &'a crate::scaling::Scaling,
-        }
-        let r = S {
-            provenance,
-            quick: self.quick,
-            note: "One thread. ms_per_hemisphere: median over the patches of one exact item buffer; ms_per_row: rows of whole windows around the same patches through rad_pipeline::rows (building the caster included), centres through the scene's default caster. On the mesh scenes every polygon holds one patch, so nothing is estimated (issue 15).",
-            scaling: &self.scaling,
-        };
-        serde_json::to_string_pretty(&r).expect("results serialise") + "\n"
-    }
-
-    /// viewfactors.json: the closed-form suite and the surface matrices at scale.
-    pub fn viewfactors_json(&self, provenance: &Provenance) -> String {
-        #[derive(Serialize)]
-        struct S<'a> {
-            provenance: &'a Provenance,
-            quick: bool,
-            note: &'static str,
-            viewfactors: &'a crate::viewfactors::ViewFactorResults,
-        }
-        let r = S {
-            provenance,
-            quick: self.quick,
-            note: "rad_pipeline::viewfactors::view_factors by polygon; error: |value - reference| less the reference's own slack (the 96-gon discs: half the gap between the unit discs' closed form and that of discs of the 96-gon's area). Peak memory: README (/usr/bin/time -v of coherad viewfactors).",
-            viewfactors: &self.viewfactors,
-        };
-        serde_json::to_string_pretty(&r).expect("results serialise") + "\n"
-    }
-
-    /// ranks.json: rows and solves shared among simulated processes, against one.
-    pub fn ranks_json(&self, provenance: &Provenance) -> String {
-        #[derive(Serialize)]
-        struct S<'a> {
-            provenance: &'a Provenance,
-            quick: bool,
-            note: &'static str,
-            ranks: &'a crate::ranks::Ranks,
-        }
-        let r = S {
-            provenance,
-            quick: self.quick,
-            note: "Processes simulated by threads of one (rad_pipeline::share::in_threads: the collectives and errors of MPI's ranks, the pipeline code coherad runs under mpirun), oversubscribed on this machine's cores. units: each process's share in work units (an exact hemisphere is 1); balance: the largest share over the mean; identical: rows, or the solution file without its timings, equal to one process's to the bit; seconds: wall time of the whole simulated run.",
-            ranks: &self.ranks,
-        };
-        serde_json::to_string_pretty(&r).expect("results serialise") + "\n"
-    }
-
-    /// meshes.json: estimation across polygons on the mesh scenes.
-    pub fn meshes_json(&self, provenance: &Provenance) -> String {
-        #[derive(Serialize)]
-        struct S<'a> {
-            provenance: &'a Provenance,
-            quick: bool,
-            note: &'static str,
-            meshes: &'a crate::meshes::MeshEstimation,
-        }
-        let r = S {
-            provenance,
-            quick: self.quick,
-            note: "Windows across a mesh's one-patch polygons of one plane (rad_estimator::Schedule), estimates guessing facets (rad_geometry::Facets). errors: the report's measures on every window_step-th estimating window, through the hierarchy (every caster gives the same hemispheres); noise: exact against half-sector-turned exact rows. cost: one thread, medians over the estimated patches of 12 windows (an abandoned improved estimate includes its exact cast). table1: every patch's rows exact by the best caster, then estimated (improved) with centres by the same caster, one after the other in one process on all threads (rows made and dropped chunk by chunk); sample_l1: the rows of every sample_step-th patch, estimated against exact.",
-            meshes: &self.meshes,
         };
         serde_json::to_string_pretty(&r).expect("results serialise") + "\n"
     }
@@ -481,216 +394,7 @@ impl Reproduction {
         self.report_estimation(w);
         self.report_radiosity(w);
         self.report_loft(w);
-        self.report_scaling(w);
-        self.report_viewfactors(w);
-        self.report_ranks(w, p.nproc);
-        self.report_meshes(w, p.nproc);
         s
-    }
-
-    /// Estimation across polygons on the mesh scenes: errors, cost, Table 1.
-    fn report_meshes(&self, w: &mut String, cores: usize) {
-        let m = &self.meshes;
-        let _ = writeln!(
-            w,
-            "\n## Estimation on meshes (meshes.json)\n\nA mesh's triangles hold one patch each, so the report's 3 x 3 windows within a polygon estimate nothing there. Windows across polygons: neighbouring one-patch polygons of one plane (normals within 1e-3 rad) binned in cubes of about nine, the one nearest their mean cast exactly, the others estimated from it in their own frames (turned about the normal). Improved mode guesses *facets* (a mesh's flat pieces: coplanar polygons sharing edges) rather than triangles, and finds each cell's triangle where its ray meets the facet's plane. {}x{}; the exact caster is the scene's default.\n",
-            m.resolution[0], m.resolution[1]
-        );
-        let _ = writeln!(w, "| scene | polygons | facets of several (their polygons) | windows (estimating) | patches a window | caster |");
-        let _ = writeln!(w, "|---|---|---|---|---|---|");
-        for s in &m.scenes {
-            let _ = writeln!(
-                w,
-                "| {} | {} | {} ({}) | {} ({}) | {:.2} | {} |",
-                s.scene,
-                s.polygons,
-                s.facets,
-                s.polygons_in_facets,
-                s.windows,
-                s.estimating_windows,
-                s.patches_per_window,
-                s.caster
-            );
-        }
-        let _ = writeln!(w, "\n### Errors against exact rows (the report's measures), and the cost of an estimate\n\nEvery k-th estimating window; noise: exact against half-sector-turned exact rows. Cost: one thread, medians over the estimated patches of 12 windows, ms, and over the exact hemisphere by the scene's caster.\n");
-        let _ = writeln!(w, "| scene | estimated rows (every k-th window) | noise L1 mean | setting | L1 mean | L1 median | L1 max | within noise | holes | real rays | cast exactly | ms / estimate | exact ms | ratio |");
-        let _ = writeln!(
-            w,
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
-        );
-        for s in &m.scenes {
-            for r in &s.errors.results {
-                let (ms, ratio) = if r.mode == "improved" {
-                    (s.cost.median_ms_improved, s.cost.ratio_improved)
-                } else {
-                    (s.cost.median_ms_faithful, s.cost.ratio_faithful)
-                };
-                let _ = writeln!(
-                    w,
-                    "| {} | {} (k = {}) | {:.4} | {} | {:.4} | {:.4} | {:.3} | {:.1} % | {:.1} % | {:.2} % | {} | {:.2} | {:.2} | {:.2} |",
-                    s.scene,
-                    s.errors.estimated_hemispheres,
-                    s.window_step,
-                    s.errors.noise_l1.mean,
-                    r.setting,
-                    r.l1.mean,
-                    r.l1.median,
-                    r.l1.max,
-                    100.0 * r.within_noise,
-                    100.0 * r.hole_fraction,
-                    100.0 * r.real_ray_fraction,
-                    r.fallback_exact,
-                    ms,
-                    s.cost.median_ms_exact,
-                    ratio
-                );
-            }
-        }
-        let _ = writeln!(w, "\n### Table 1 on meshes\n\nEvery patch's rows, exact by the scene's caster, then estimated (improved mode) with centres, real rays and fallbacks by the same caster, one after the other in this process on {cores} threads; wall time of the rows alone (made and dropped chunk by chunk). L1: the estimated rows of every k-th patch against their exact rows.\n");
-        let _ = writeln!(w, "| scene | rows | exact | estimated | exact / estimated | cast exactly (centres) | estimated | fallbacks | real rays / estimate | sample L1 mean (k) | max |");
-        let _ = writeln!(w, "|---|---|---|---|---|---|---|---|---|---|---|");
-        for s in &m.scenes {
-            let t = &s.table1;
-            let _ = writeln!(
-                w,
-                "| {} | {} | {:.1} s | {:.1} s | {:.2} | {} | {} | {} | {:.0} | {:.4} ({}) | {:.3} |",
-                s.scene,
-                t.rows,
-                t.exact_seconds,
-                t.estimated_seconds,
-                t.speedup,
-                t.rows - t.estimated_hemispheres - t.fallback_exact,
-                t.estimated_hemispheres,
-                t.fallback_exact,
-                t.real_rays_per_estimate,
-                t.sample_l1.mean,
-                t.sample_step,
-                t.sample_l1.max
-            );
-        }
-    }
-
-    /// The simulated larger run: identity with one process and the balance.
-    fn report_ranks(&self, w: &mut String, cores: usize) {
-        let r = &self.ranks;
-        let _ = writeln!(
-            w,
-            "\n## A simulated larger run (ranks.json)\n\nRows of the loft and solves of the Cornell box at {}x{} shared among 2 to {} processes simulated by threads (`rad_pipeline::share::in_threads`, oversubscribed on {} cores; the pipeline code `coherad` runs under `mpirun`), each against one process: rows, or the solution file without its timings, to the bit. Balance: the largest share's work units over the mean.\n",
-            r.resolution[0],
-            r.resolution[1],
-            r.runs.iter().map(|x| x.processes).max().unwrap_or(0),
-            cores
-        );
-        let _ = writeln!(
-            w,
-            "| run | scene | processes | identical | balance | seconds |"
-        );
-        let _ = writeln!(w, "|---|---|---|---|---|---|");
-        for x in &r.runs {
-            let _ = writeln!(
-                w,
-                "| {} | {} | {} | {} | {:.3} | {:.2} |",
-                x.what,
-                x.scene,
-                x.processes,
-                if x.identical { "yes" } else { "**no**" },
-                x.balance,
-                x.seconds
-            );
-        }
-    }
-
-    /// The view-factor section: closed forms, the cube, the matrices at scale.
-    fn report_viewfactors(&self, w: &mut String) {
-        let v = &self.viewfactors;
-        let _ = writeln!(
-            w,
-            "\n## View factors against closed forms (viewfactors.json)\n\n`coherad viewfactors` by polygon at {}x{}, every surface 10 x 10 patches, N x N origins a patch; the error is |F − closed form| (for the 96-gon discs, less half the gap between the unit discs' 0.381966 and the 0.381844 of discs of the 96-gon's area).\n",
-            v.resolution[0], v.resolution[1]
-        );
-        let origins: Vec<u32> = v
-            .cases
-            .first()
-            .map_or(Vec::new(), |c| c.values.iter().map(|o| o.origins).collect());
-        let head: Vec<String> = origins.iter().map(|n| format!("origins {n}")).collect();
-        let _ = writeln!(w, "| case | closed form | {} |", head.join(" | "));
-        let _ = writeln!(w, "|---|---|{}", "---|".repeat(origins.len()));
-        for c in &v.cases {
-            let cells: Vec<String> = c
-                .values
-                .iter()
-                .map(|o| format!("{:.8} ({:.1e})", o.value, o.error))
-                .collect();
-            let _ = writeln!(
-                w,
-                "| {} | {:.8} | {} |",
-                c.name,
-                c.reference,
-                cells.join(" | ")
-            );
-        }
-        let _ = writeln!(
-            w,
-            "\nThe unit cube's 36 face factors at the default origins: largest error {:.1e}.\n",
-            v.cube_max_error
-        );
-        let _ = writeln!(w, "| scene | surfaces | patches | origins | hemispheres | resolution | enclosure | threads | time | nonzeros | raw max \\|1 − row sum\\| | raw reciprocity error (median, max) | largest change |");
-        let _ = writeln!(w, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
-        for r in &v.scale {
-            let _ = writeln!(
-                w,
-                "| {} | {} | {} | {} | {} | {}x{} | {} | {} | {:.1} s | {} | {:.1e} | {:.1e}, {:.1e} | {:.1e} |",
-                r.scene, r.surfaces, r.patches, r.origins, r.hemispheres, r.resolution[0], r.resolution[1],
-                r.enclosure, r.threads, r.seconds, r.nonzeros, r.raw_row_sum_error_max,
-                r.raw_reciprocity_error_median, r.raw_reciprocity_error_max, r.max_change
-            );
-        }
-        let _ = writeln!(w, "\nFor scale: one View3D user's 22,176-facet case took about 21 minutes on 8 threads (after running out of memory before sparse output).");
-    }
-
-    fn report_scaling(&self, w: &mut String) {
-        let sc = &self.scaling;
-        let _ = writeln!(
-            w,
-            "\n## Exact hemispheres as scenes grow (scaling.json)\n\nOne thread, {}x{}, the median over {} patches of one item buffer, in ms; every caster's item buffers compared bit for bit. Rows: whole windows around the same patches, centres through the scene's default caster, ms a row.\n",
-            sc.resolution[0],
-            sc.resolution[1],
-            sc.scenes.first().map_or(0, |s| s.hemispheres)
-        );
-        let _ = writeln!(w, "| scene | polygons | grid | scan | hierarchy | facets | same bits | default | exact rows | faithful rows (estimated) | improved rows (estimated) |");
-        let _ = writeln!(w, "|---|---|---|---|---|---|---|---|---|---|---|");
-        for s in &sc.scenes {
-            let ms = |c: &str| {
-                s.casters
-                    .iter()
-                    .find(|t| t.caster == c)
-                    .map_or(f64::NAN, |t| t.ms_per_hemisphere)
-            };
-            let m = |k: usize| {
-                s.modes.get(k).map_or(String::new(), |m| {
-                    if k == 0 {
-                        format!("{:.2}", m.ms_per_row)
-                    } else {
-                        format!("{:.2} ({} of {})", m.ms_per_row, m.estimated, m.rows)
-                    }
-                })
-            };
-            let _ = writeln!(
-                w,
-                "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {} | {} | {} | {} |",
-                s.scene,
-                s.polygons,
-                ms("grid"),
-                ms("scan"),
-                ms("hierarchy"),
-                ms("facets"),
-                if s.identical { "yes" } else { "**no**" },
-                s.default_caster,
-                m(0),
-                m(1),
-                m(2)
-            );
-        }
     }
 
     /// The loft's closure and exact-hemisphere timings.

@@ -1,0 +1,47 @@
+//! `cargo xtask scenes`: rewrites bench-scenes/ from the builders in
+//! `rad_geometry::scenes`.
+
+use anyhow::{Context, Result};
+use rad_geometry::file::{scene_desc_to_json, scene_desc_to_json_indexed};
+use rad_geometry::scenes::{
+    blob_room, cornell_box, cube, loft, loft_fine_triangles, loft_patches, loft_triangles,
+    urban_canyon, CORNELL_PATCH_MM,
+};
+use rad_geometry::Scene;
+use rad_pipeline::output::write_atomic;
+use std::path::Path;
+
+/// Rewrites the bench-scene files from their builders.
+pub fn write_scenes(out: &Path) -> Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let scenes = [
+        ("cube.json", cube(10), "The report's empty cube: unit size, six inward faces, 10 x 10 patches each (rad_geometry::scenes::cube)."),
+        ("loft.json", loft(), "Our loft-like interior to the report's counts, 185 polygons and 14,400 patches (rad_geometry::scenes::loft); the report never published its loft."),
+        ("cornell.json", cornell_box(CORNELL_PATCH_MM), "The Cornell box from its published geometry, in mm (rad_geometry::scenes::cornell_box); RGB reflectances from Bitterli's cornell-box resource."),
+    ];
+    let meshes = [
+        ("loft_patches.json", loft_patches(), "Our loft with every patch its own polygon: 14,400 one-patch polygons (rad_geometry::scenes::loft_patches)."),
+        ("loft_triangles.json", loft_triangles(), "Our loft with every patch cut into two triangles: 28,800 one-patch triangles (rad_geometry::scenes::loft_triangles)."),
+        ("loft_fine.json", loft_fine_triangles(), "Our loft with every patch cut 2 x 2, each quarter into two triangles: 115,200 one-patch triangles (rad_geometry::scenes::loft_fine_triangles)."),
+        ("canyon.json", urban_canyon(), "An urban street canyon: two rows of six 12 x 12 x 25 m buildings either side of a 12 m street, every wall, roof and the ground cut into 1 m facets, one patch each, each building face a group: 20,536 facets (rad_geometry::scenes::urban_canyon)."),
+        ("blob_room.json", blob_room(), "A star-shaped blob of 20,480 triangles (a displaced icosphere) in a closed 4 x 3 x 4 m room with a ceiling lamp (rad_geometry::scenes::blob_room)."),
+    ];
+    let all = scenes
+        .into_iter()
+        .map(|(n, d, a)| (n, d, a, false))
+        .chain(meshes.into_iter().map(|(n, d, a)| (n, d, a, true)));
+    for (name, desc, about, indexed) in all {
+        Scene::new(desc.clone())
+            .with_context(|| format!("the {name} builder makes an invalid scene"))?;
+        let text = if indexed {
+            scene_desc_to_json_indexed(&desc, Some(about))
+        } else {
+            scene_desc_to_json(&desc, Some(about))
+        };
+        let path = out.join(name);
+        write_atomic(&path, |w| w.write_all(text.as_bytes()))
+            .with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
