@@ -26,7 +26,8 @@ pub struct VoxelGridConfig {
 
 impl VoxelGridConfig {
     /// The grid used unless told otherwise: about 4 voxels per polygon, at most 256 a
-    /// side (measured best on the loft at 180 × 720; see ARCHITECTURE.md).
+    /// side (measured best on the loft at 180 × 720 by `cargo run --release -p rad-repro
+    /// --example grid_density`).
     pub const DEFAULT: VoxelGridConfig = VoxelGridConfig {
         resolution: GridResolution::Auto {
             density: 4.0,

@@ -3,7 +3,7 @@
 //! than with `medium_build`, for a build of 96 ms instead of 57), a well-kept crate
 //! whose build is 2.1 to 2.6 times faster and whose rays are 1.6 to 2.4 times faster
 //! than the hierarchy's own binary tree on the bench scenes (`cargo run --release -p
-//! rad-hemisphere --example single_rays`), with the shared f32 hit test and the
+//! rad-repro --example single_rays`), with the shared f32 hit test and the
 //! lower-id tie rule deciding every candidate, so the hits are brute force's, to the
 //! bit.
 //!

@@ -43,7 +43,7 @@ impl CasterKind {
 
     /// From this many polygons a facet on average, the facet scan is the default for a
     /// scene of [`CasterKind::HIERARCHY_FROM`] polygons or more (measured on the bench
-    /// scenes, one core, 180 × 720, `MESHES=1 cargo run --release -p rad-hemisphere
+    /// scenes, one core, 180 × 720, `MESHES=1 cargo run --release -p rad-repro
     /// --example scan_check`: 640 a facet on the 115k-triangle loft, 2.1 times the
     /// hierarchy's speed; 160 on the 29k-triangle loft, 1.4 times; 80 on the loft cut a
     /// polygon a patch, 0.77 times; about 1 on a room with a curved 20k-triangle blob,

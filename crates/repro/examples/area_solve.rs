@@ -4,7 +4,7 @@
 //! Writes the radiosities as a solution-like JSON (`radiosity`, `ambient`) that
 //! `python/reference/compare.py` reads.
 //!
-//! `cargo run --release -p rad-pipeline --example area_solve -- SCENE.json N OUT.json
+//! `cargo run --release -p rad-repro --example area_solve -- SCENE.json N OUT.json
 //! [RES]`
 
 use rad_pipeline::solve::{solve, surfaces, SceneSolveConfig};

@@ -6,7 +6,7 @@
 //! (`B + ρ · ambient`: shooting's unshot light). Prints the median and largest
 //! differences, the polygons over 2 %, and the twelve worst with their areas and means.
 //!
-//! `cargo run --release -p rad-pipeline --example coarse_agreement -- COARSE.json
+//! `cargo run --release -p rad-repro --example coarse_agreement -- COARSE.json
 //! COARSE_SOLUTION.json FINE.json FINE_SOLUTION.json`
 
 use rad_pipeline::solve::read_solution;

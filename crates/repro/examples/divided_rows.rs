@@ -3,7 +3,7 @@
 //! scene's own f32 coordinates (what it made them from before): cells that see another
 //! patch, the largest entry difference, and the mean L1 difference of a row, over 64
 //! patches of each scene at 180 x 720 through the scan:
-//! `cargo run --release -p rad-hemisphere --example divided_rows` (`MESHES=1`: the mesh
+//! `cargo run --release -p rad-repro --example divided_rows` (`MESHES=1`: the mesh
 //! scenes too).
 
 use rad_geometry::scenes::{

@@ -1,5 +1,5 @@
 //! Hash of estimates (both modes) over windows of the bench scenes, to compare two
-//! builds bit for bit: `cargo run --release -p rad-estimator --example estimate_hash`.
+//! builds bit for bit: `cargo run --release -p rad-repro --example estimate_hash`.
 use rad_accel::{VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_estimator::{

@@ -1,4 +1,4 @@
-//! Grid-density sweep on the loft: `cargo run --release -p rad-hemisphere --example
+//! Grid-density sweep on the loft: `cargo run --release -p rad-repro --example
 //! grid_density -- 1 4 16 12,5,8` times one-thread 180 × 720 hemispheres (best of
 //! REPS=5 passes over 16 patches) for each density (or fixed x,y,z voxel counts).
 

@@ -1,7 +1,7 @@
 //! The mean relative difference of two solutions' images (the report's figure 9
 //! measure), rendered from the scene's camera through the same renderer.
 //!
-//! `cargo run --release -p rad-pipeline --example image_diff -- SCENE A.json B.json`
+//! `cargo run --release -p rad-repro --example image_diff -- SCENE A.json B.json`
 
 use rad_pipeline::images::render_image;
 use rad_pipeline::solve::read_solution;

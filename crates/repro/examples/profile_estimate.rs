@@ -1,6 +1,6 @@
 //! Estimates hemispheres at 180 × 720 (or RES=NθxNφ) in one mode, for instruction counts under
 //! `valgrind --tool=callgrind`: `MODE=none|exact|faithful|improved SCENE=loft|cube [GUESS=3] [SHARE=0.05] [RES=90x360] cargo run
-//! --release -p rad-estimator --example profile_estimate`.
+//! --release -p rad-repro --example profile_estimate`.
 
 use rad_accel::{VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;

@@ -1,5 +1,5 @@
 //! Whole-scene rows by two methods, one after the other in one process, timed:
-//! `cargo run --release -p rad-pipeline --example rows_timing -- SCENE.json [RES]
+//! `cargo run --release -p rad-repro --example rows_timing -- SCENE.json [RES]
 //! [exact/hierarchy,estimated/improved/hierarchy] [FIRST-END]` (the patches FIRST..END
 //! alone, through `rows`, if given).
 use rad_pipeline::{rows_streamed, Hemisphere, RowMethod, SceneFile};

@@ -1,7 +1,7 @@
 //! Rows of mesh scenes and the loft scaled by factors from 3.3e-6 to 6.1e5 (coordinates
 //! multiplied in f64, as a file would give them) against the unscaled scene's, exact
 //! and estimated, about 600 patches each at 45 x 180:
-//! `cargo run --release -p rad-pipeline --example scale_check` prints how many rows are
+//! `cargo run --release -p rad-repro --example scale_check` prints how many rows are
 //! the same to the bit.
 use rad_geometry::{scenes, PatchGrid, Scene, SceneDesc};
 use rad_pipeline::{rows, Hemisphere, HemisphereConfig, RowMethod};

@@ -1,5 +1,5 @@
 //! Scan vs grid on the loft, cube and Cornell box (and with `MESHES=1` the mesh
-//! scenes): `cargo run --release -p rad-hemisphere --example scan_check`: checks the
+//! scenes): `cargo run --release -p rad-repro --example scan_check`: checks the
 //! item buffers are equal and times both (one thread).
 
 use rad_accel::{VoxelGrid, VoxelGridConfig};

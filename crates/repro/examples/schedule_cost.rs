@@ -1,6 +1,6 @@
 //! Table 2's ratio on a part of the loft, one thread: thread-time per estimated row over
 //! thread-time per exact row, through the schedule (`estimate_rows`), both modes, the
-//! default settings (`GUESS=s` for another guess stride): `STRIDE=7 cargo run --release -p rad-estimator --example schedule_cost`
+//! default settings (`GUESS=s` for another guess stride): `STRIDE=7 cargo run --release -p rad-repro --example schedule_cost`
 //! (every STRIDE-th window, whole).
 
 use rad_accel::{VoxelGrid, VoxelGridConfig};

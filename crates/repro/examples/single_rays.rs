@@ -3,7 +3,7 @@
 //! PLOC build, with our hit test and tie rule deciding), and through `FacetRays` (the
 //! same BVH over facets), on the same rays: build time, rays a second on one thread,
 //! and whether the closest hits agree to the bit.
-//! `cargo run --release -p rad-hemisphere --example single_rays`.
+//! `cargo run --release -p rad-repro --example single_rays`.
 
 use glam::Vec3;
 use rad_accel::WideBvh;

@@ -426,7 +426,7 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 /// through both casters and estimated rows in both modes with centres through both.
 /// The loft's were stored again when rows came to be made from the scene divided by
 /// its largest coordinate (12; issue 19): 28 of 8,294,400 cells of 64 hemispheres see
-/// another patch, one cell's 1.2e-5 at most (`cargo run --release -p rad-hemisphere
+/// another patch, one cell's 1.2e-5 at most (`cargo run --release -p rad-repro
 /// --example divided_rows`); the unit cube's, divided by 1, are the same bytes.
 #[test]
 fn form_factor_files_keep_their_stored_hashes() {
@@ -1512,6 +1512,7 @@ fn a_scene_that_emits_nothing_is_warned_of() {
     assert!(lit.status.success() && !err.contains("emits"), "{err}");
 }
 
+mod front_door;
 #[cfg(feature = "mpi")]
 mod mpi;
 
