@@ -4,6 +4,16 @@
 //! measurements (scaling, viewfactors, ranks, meshes, solves) into results/; both
 //! rewrite the README's figures table when they write results/. `cargo xtask scenes`
 //! rewrites bench-scenes/ from the builders.
+//!
+//! - `figures`: the README's table of current figures, from results/.
+//! - `plot`: the scaling plot (results/scaling.png).
+//! - `provenance`: the revision, machine, threads, command and date of a run.
+//! - `reproduce`: `reproduce` and `bench`, writing what `rad_repro` returns.
+//! - `scenes`: `scenes`, bench-scenes/ from `rad_geometry::scenes`.
+//! - `solves`: `coherad solve` run as a user runs it, timed, its peak memory measured.
+//! - `tidy` (tests): the house rules: `//!` headers, no glob re-exports, no `should_panic`
+//!   or `ignore`, the crate arrows, functions of at most 120 lines; `tidy/cycles.rs`: no
+//!   module cycles within a crate.
 
 mod figures;
 mod plot;

@@ -1,6 +1,11 @@
 //! Ray casting against a scene's polygons (not patches): a uniform voxel grid traversed
-//! by 3D-DDA (Amanatides and Woo) with mailboxing, and a brute-force reference. Both
-//! implement [`rad_core::RayCast`], and nothing else.
+//! by 3D-DDA (Amanatides and Woo) with mailboxing, a wide BVH for single rays, and a
+//! brute-force reference. All implement [`rad_core::RayCast`], and nothing else.
+//!
+//! - `brute`: [`BruteForce`], every ray against every polygon: the reference.
+//! - `grid`: [`VoxelGrid`] and its settings ([`VoxelGridConfig`]), per-thread [`GridScratch`].
+//! - `wide`: [`WideBvh`], single rays through `obvhs`'s eight-wide BVH, and [`WideTree`], the
+//!   same tree over any boxes (a [`rad_core::BoxTree`]).
 
 mod brute;
 mod grid;

@@ -6,9 +6,10 @@
 //! [`viewfactors`], [`solve`], [`render`], [`export`]), each a `run` that returns an
 //! [`exit::Outcome`] or a typed [`exit::Error`] ([`exit`]: the exit codes);
 //! [`context`] loads scenes and writes outputs; [`report`] holds notes, warnings and
-//! progress bars. What the binary and the Python
-//! package both decide (the method and auto's pick, a solve's and view factors'
-//! settings) is the pipeline's (`rad_pipeline::{pick_method, SolveRequest, ...}`).
+//! progress bars; `ranks` is the processes sharing a run (`ranks_mpi.rs` with the `mpi`
+//! feature, else `ranks_one.rs`). What the binary and the Python package both decide (the
+//! method and auto's pick, a solve's and view factors' settings) is the pipeline's
+//! (`rad_pipeline::{pick_method, SolveRequest, ...}`).
 //! Exit codes: 0 done, 1 an error, 2 a usage error (clap's), 3 a solve that did not
 //! converge (its file written all the same).
 

@@ -5,7 +5,7 @@ use glam::Vec3;
 /// A right-handed orthonormal frame `(t, b, n)`: `b = n × t`.
 ///
 /// The hemisphere frame of a patch has +z along `n` and +x along `t`, the direction of
-/// its polygon's first edge (DESIGN.md §2).
+/// its polygon's first edge (docs/design.md, "Frames and conventions").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frame {
     pub t: Vec3,

@@ -12,7 +12,8 @@ pub const NO_POLYGON: PolygonId = PolygonId::MAX;
 
 /// Item-buffer entry of a cell whose ray left the scene.
 pub const ESCAPED: PatchId = PatchId::MAX;
-/// Item-buffer entry of a cell whose ray met a polygon from behind (../shared/DESIGN.md §2).
+/// Item-buffer entry of a cell whose ray met a polygon from behind (docs/design.md, "Frames and
+/// conventions").
 pub const BACK: PatchId = PatchId::MAX - 1;
 /// Item-buffer entry of a cell of an estimate that nothing landed in, before its hole
 /// is filled (never in a finished item buffer).

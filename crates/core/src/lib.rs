@@ -1,5 +1,13 @@
 //! Vocabulary shared by every coherad crate: rays, hits, frames, colours, ids and the
 //! [`RayCast`] trait through which form-factor code sees an accelerator.
+//!
+//! - `frame`: [`Frame`], a patch's orthonormal local frame `(t, b, n)`.
+//! - `hint`: [`prefetch`], a hint to the CPU.
+//! - `ids`: [`PatchId`], [`PolygonId`] and the sentinels that are not patches or polygons.
+//! - `ray`: [`Ray`], [`Hit`], the [`RayCast`] trait and [`BoxTree`], a nearest-first tree of boxes.
+//! - `rgb`: [`Rgb`] triples for reflectance, emission and radiosity.
+//!
+//! The crate root holds [`Isa`], the instruction set kernels run with, and [`with_isa!`].
 
 mod frame;
 mod hint;

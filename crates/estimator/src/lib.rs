@@ -1,6 +1,6 @@
-//! Hemispheres estimated from a neighbour's by a small motion (the report's §3, with
-//! DESIGN.md §2's formulas (1)), and an improvement that estimates visibility instead of
-//! patch ids.
+//! Hemispheres estimated from a neighbour's by a small motion (the report's §3, with the
+//! formulas (1) of docs/design.md, "Motion and reprojection"), and an improvement that
+//! estimates visibility instead of patch ids.
 //!
 //! - [`SourceHemisphere`]: an exact hemisphere H1 kept for estimation: ids, distances,
 //!   and the boundary lists of §3.5.2.
@@ -10,6 +10,20 @@
 //!   against the polygons guessed for it and its 8 neighbours.
 //! - [`windows`], [`Schedule`]: the 3 × 3 window schedule of §3.6 (and windows across a
 //!   mesh's one-patch polygons of one plane); [`estimate_rows`] runs it all.
+//!
+//! Modules, one a concept:
+//! - `cell_trig`: per-cell trigonometry and the splat's f32 cell lookups.
+//! - `config`: [`EstimatorConfig`] and its choices ([`Mode`], [`HoleFill`], [`Reprojection`]).
+//! - `driver`: [`estimate_rows`] and [`estimate_windows`], exact centres and estimates.
+//! - `estimator`: the [`Estimator`], its per-resolution tables, and the motion ([`frame_turn`]).
+//! - `faithful`: faithful mode ([`Estimate`]): splat, then fill holes.
+//! - `holes`: hole filling, by cells and by runs.
+//! - `improved`: improved mode ([`ImprovedEstimate`], [`Outcome`]).
+//! - `reproject`: the f64 formulas ([`reproject_exact`], [`reproject_first_order`]).
+//! - `schedule`: the windows, within and across polygons ([`windows`], [`Schedule`]).
+//! - `source`: [`SourceHemisphere`], H1.
+//! - `splat`: the ring pass and the z-buffered splat.
+//! - `zbuffer`: the splat's keys, and its AVX-512 writes.
 
 mod cell_trig;
 mod config;

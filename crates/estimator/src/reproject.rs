@@ -1,5 +1,6 @@
-//! Where a point seen from C1 lands when seen from C2 = C1 + d (DESIGN.md §2), in f64:
-//! the reference for the splat's f32 arithmetic (`faithful::splat`) and for the tests.
+//! Where a point seen from C1 lands when seen from C2 = C1 + d (docs/design.md, "Motion and
+//! reprojection"), in f64: the reference for the splat's f32 arithmetic (`faithful::splat`) and for
+//! the tests.
 
 use std::f64::consts::{PI, TAU};
 

@@ -1,5 +1,20 @@
-//! Polygons, patch textures, patches and scenes: validation, the JSON and OBJ/MTL scene
-//! files, and the bench-scene builders.
+//! Polygons, patch textures, patches and scenes: validation, the scene files (JSON, OBJ/MTL,
+//! View3D, PLY, STL, glTF), the one ray–polygon hit test, and the bench-scene builders.
+//!
+//! - `adjacency`: [`EdgeNeighbours`], the polygon across each edge of a mesh.
+//! - `clip`: 2-D helpers for patch textures (convex clipping, area, centroid).
+//! - `error`: [`Error`] and [`PolygonProblem`], the typed errors of scenes and their files.
+//! - `facets`: [`Facets`], a mesh's flat pieces, each with a grid that locates its polygons.
+//! - `file`: the scene-file readers and the JSON writer ([`file::load`] with
+//!   [`file::LoadConfig`]; `gltf`, `json`, `material_map`, `mesh` for PLY and STL, `obj`, `vs3`).
+//! - `hit_test`: the shared ray–polygon test ([`PolygonTerms`], [`OriginTerms`], [`Shape`],
+//!   `Polygon::intersect`, `Polygon::terms_at`, [`PolygonHit`]).
+//! - `overlap`: the coplanar overlaps a scene refuses.
+//! - `polygon`: [`Polygon`] and [`Patch`]: validation, patch textures, the (u, v) → patch map.
+//! - `scene`: [`Scene`] and its description ([`SceneDesc`], [`PolygonDesc`], [`Material`],
+//!   [`Camera`]); `Facets::of` and `Facets::exact`.
+//! - `scenes`: the bench scenes (`canyon`, `cornell`, `cube`, `loft`, `meshes`).
+//! - `triangulate`: `--triangulate`, ear clipping of concave and warped faces ([`ear_clip`]).
 
 mod adjacency;
 mod clip;

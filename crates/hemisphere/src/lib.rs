@@ -7,6 +7,17 @@
 //! implements: any [`rad_core::RayCast`] (one ray a cell, [`Hemisphere::cast`]), or
 //! [`Scan`] ([`Hemisphere::scan`]: polygon by polygon over the cells each can cover).
 //! They all give the same item buffers, to the bit.
+//!
+//! - `caster`: the [`Caster`] trait, its blanket impl for every `RayCast`, and [`Scan`].
+//! - `cells`: [`Hemisphere`] cells, [`delta_form_factors`] and ray directions.
+//! - `facet_scan`: [`FacetScan`], the scan over a mesh's facets; `facet_scan::rays` holds
+//!   [`FacetRays`], single rays at the cost of facets, and `rays::bins` its light buffer.
+//! - `hierarchy`: [`Hierarchy`], the scan over a bounding volume hierarchy, and
+//!   [`HierarchyRays`].
+//! - `item_buffer`: [`ItemBuffer`] (a patch id and a distance a cell) and [`Viewpoint`].
+//! - `lambert`: [`point_to_polygon_form_factor`], Lambert's closed form.
+//! - `row`: [`Row`]s from item buffers, [`compute_rows`] and [`compute_area_rows`].
+//! - `scan`: the polygon scan's kernel, [`NearestHits`] (shared with improved estimation).
 
 mod caster;
 mod cells;

@@ -1,7 +1,23 @@
 //! What every coherad user runs, once, for the two front ends (the `coherad` binary and
-//! the reproduction): a scene file loaded and fingerprinted, rows made by a named
-//! [`RowMethod`], the reciprocal matrix and its solve, solution files written and read
-//! back, images written. It computes and writes; it never prints.
+//! the Python package) and the reproduction: a scene file loaded and fingerprinted, rows
+//! made by a named [`RowMethod`], the reciprocal matrix and its solve, solution files
+//! written and read back, images written. It computes and writes; it never prints.
+//!
+//! - `export`: scenes and solutions to glTF 2.0 and PLY, radiosity baked into vertex colours.
+//! - `images`: EXR and PNG files, and `render_image`, which picks the renderer's caster.
+//! - `matrix_file`: coherad's compact binary sparse-matrix file, written and read back.
+//! - `method`: [`RowMethod`] and [`CasterKind`], the ways to make rows, by stable names.
+//! - `output`: atomic files, and the JSON of patches and rows.
+//! - `parse`: command-line values (resolutions, patch lists, reflectances, sizes).
+//! - `request`: what both front ends decide ([`pick_method`], [`SolveRequest`],
+//!   [`settle_method`], [`ViewFactorRequest`]).
+//! - `row_file`: rows spilled to an unnamed temporary file for out-of-core solving.
+//! - `rows`: a scene's rows by a method, whole or streamed; the one place names become casters.
+//! - `scene_file`: [`SceneFile`], a scene loaded with its fingerprint.
+//! - `share`: a run's rows shared among processes (the `Peers` trait; no MPI here).
+//! - `solve`: from a scene to its radiosities: a dispatch over `solve/` (`config`, `solution`,
+//!   `storage`, `stored`, `by_rows`, `out_of_core`, `matrix_free`).
+//! - `viewfactors`: surface-to-surface view factors and their writers.
 
 pub mod export;
 pub mod images;

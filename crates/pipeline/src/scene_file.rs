@@ -38,16 +38,16 @@ impl SceneFile {
 
     /// Loads `path` with `patch_size` for polygons that give no grid.
     pub fn load(path: &Path, patch_size: Option<f64>) -> Result<SceneFile, Error> {
-        let options = LoadConfig {
+        let config = LoadConfig {
             patch_size,
             ..LoadConfig::default()
         };
-        SceneFile::load_with(path, &options)
+        SceneFile::load_with(path, &config)
     }
 
-    /// Loads `path` (any format of `rad_geometry::file::SCENE_EXTENSIONS`) as `options`
-    /// say, and validates it.
-    pub fn load_with(path: &Path, options: &LoadConfig) -> Result<SceneFile, Error> {
+    /// Loads `path` (any format of `rad_geometry::file::SCENE_EXTENSIONS`) as `config`
+    /// says, and validates it.
+    pub fn load_with(path: &Path, config: &LoadConfig) -> Result<SceneFile, Error> {
         if let Err(source) = std::fs::metadata(path) {
             return Err(Error::Io {
                 action: "read",
@@ -55,7 +55,7 @@ impl SceneFile {
                 source,
             });
         }
-        let loaded = load(path, options)?;
+        let loaded = load(path, config)?;
         let scene = Scene::new(loaded.desc).map_err(|e| rad_geometry::Error::InFile {
             path: path.to_path_buf(),
             source: Box::new(e),

@@ -2,7 +2,11 @@
 //! [`RayCast`] to a patch, and that patch's radiosity, flat or smooth
 //! ([`Shading`]). Pixels hold linear RGB radiosity (divide by π for radiance); a ray
 //! that misses, or meets a polygon's back face, is black. Writing files is
-//! `rad-repro`'s.
+//! `rad-pipeline`'s.
+//!
+//! One module, this file: [`View`] (a pinhole camera), [`render`] (stratified rays a pixel,
+//! [`RenderConfig`]), [`corner_values`] and [`smooth_at`] (the smooth shading, which
+//! exports bake too), [`Image`], and [`relative_difference`] (the report's figure 9).
 
 use glam::Vec3;
 use rad_core::{PatchId, Ray, RayCast};

@@ -1,5 +1,5 @@
-//! The exact hemisphere's accuracy in the empty cube against Lambert's formula
-//! (DESIGN.md §3), and the cube's face-to-face factors against their closed forms.
+//! The exact hemisphere's accuracy in the empty cube against Lambert's formula (docs/design.md,
+//! "Closed forms used in tests"), and the cube's face-to-face factors against their closed forms.
 
 use crate::closed_form::{parallel_rectangles, perpendicular_rectangles};
 use crate::stats::Summary;

@@ -1,5 +1,5 @@
-//! The estimation-error experiment (report §4 and DESIGN.md §2): every estimated patch
-//! against our exact hemisphere of that patch, for each estimator setting.
+//! The estimation-error experiment (report §4; docs/design.md, "Error measures"): every estimated
+//! patch against our exact hemisphere of that patch, for each estimator setting.
 
 use crate::accuracy::lambert;
 use crate::stats::Summary;

@@ -1,6 +1,20 @@
 //! The report's experiments, run on our scenes, and their tables (JSON and Markdown)
-//! for `cargo xtask reproduce` and `cargo xtask bench`, on top of the pipeline (`rad-pipeline`), whose rows,
-//! solves and writers they use. It computes; it never prints.
+//! for `cargo xtask reproduce` and `cargo xtask bench`, on top of the pipeline
+//! (`rad-pipeline`), whose rows, solves and writers they use. It computes; it never prints.
+//!
+//! - `reproduce`: the report's run and REPORT.md, from the modules below it:
+//!   - `accuracy`: the exact hemisphere against Lambert in the empty cube, and face to face;
+//!   - `loft`: checks on our loft (counts, closure, reciprocity, exact hemisphere speed);
+//!   - `reciprocity`: reciprocity over the pairs of a set of rows;
+//!   - `estimation`: the estimation-error experiment;
+//!   - `speedup`: Table 1, Table 2, figures 7-9 and the cube's and Cornell box's solves.
+//! - `bench`: `cargo xtask bench`'s sections and BENCH.md, from the modules below it:
+//!   - `scaling`: exact hemispheres of every caster as scenes grow;
+//!   - `viewfactors`: view factors against closed forms and at scale;
+//!   - `ranks`: rows and solves shared among simulated processes, checked to the bit;
+//!   - `meshes`: estimation across polygons on the mesh scenes.
+//! - `closed_form`: closed-form view factors (squares, discs, obstructed plates).
+//! - `stats`: summary statistics of samples.
 
 pub mod accuracy;
 pub mod bench;

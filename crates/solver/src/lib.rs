@@ -8,6 +8,18 @@
 //! the solvers are meant to run on. [`gauss_seidel`] gathers, [`progressive`] shoots in
 //! order of unshot power; both stop on the same residual and reach the same solution.
 //! Non-convergence is data ([`SolveReport::converged`]), not an error.
+//!
+//! - `enclosure`: [`SurfaceMatrix`], surface-to-surface factors under an [`Enclosure`] rule,
+//!   and script-F.
+//! - `matrix`: [`FormFactors`], the CSR matrix.
+//! - `operator`: the [`Operator`] trait, what the solvers need of any storage.
+//! - `pairs`: [`PairMatrix`] (`F ∪ Fᵀ` stored once, built by [`PairBuilder`]) and
+//!   [`FormFactors::reciprocal`].
+//! - `rowset`: [`RowSet`], one process's rows of a solve shared by rows.
+//! - `scaling`: [`reciprocal_scaling`] (Newton-CG) and what it changed ([`Reciprocity`]).
+//! - `shooting`: [`shoot_matrix_free`], progressive refinement asking for rows as it shoots.
+//! - `solve`: [`gauss_seidel`], [`progressive`], [`jacobi`], the residual, the energy balance.
+//! - `surfaces`: [`Surfaces`] (area, emission, reflectance of each patch) and their checks.
 
 mod enclosure;
 mod matrix;

@@ -1,6 +1,10 @@
 //! Test support (a dev-dependency only): proptest strategies for random valid scenes
 //! of convex polygons, and for rays through them; a mutation fuzzer for the scene-file
 //! parsers (`fuzz`).
+//!
+//! - `fuzz`: the byte-level mutation fuzzer, deterministic for a seed.
+//!
+//! The strategies (`convex_polygon`, `random_scene`, `ray`, ...) live in the crate root.
 
 pub mod fuzz;
 
