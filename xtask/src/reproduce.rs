@@ -17,12 +17,7 @@ pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Resul
         if quick { " --quick" } else { "" },
         out.display()
     );
-    let progress = |stage: &str, step: usize, of: usize| {
-        eprintln!(
-            "  {stage}: {step}/{of} ({:.1} s)",
-            t.elapsed().as_secs_f64()
-        );
-    };
+    let progress = |stage: &str, step: usize, of: usize| say_progress(&t, stage, step, of);
     // The solves first, each a child process on an otherwise idle machine: a child's
     // peak resident set (wait4's ru_maxrss) starts from this process's own at the fork
     // (Linux keeps the forked copy's high-water mark across exec), and this process
@@ -95,12 +90,7 @@ pub fn bench(
         if quick { " --quick" } else { "" },
         out.display()
     );
-    let progress = |stage: &str, step: usize, of: usize| {
-        eprintln!(
-            "  {stage}: {step}/{of} ({:.1} s)",
-            t.elapsed().as_secs_f64()
-        );
-    };
+    let progress = |stage: &str, step: usize, of: usize| say_progress(&t, stage, step, of);
     // (The solves first, as in the reproduction: their peak memory is their own.)
     let solves = if solves_asked {
         let cases = if quick {
@@ -141,4 +131,12 @@ pub fn bench(
     crate::figures::update_readme(root, out)?;
     eprintln!("done in {wall:.1} s");
     Ok(())
+}
+
+/// A section's progress on standard error, with the seconds since `t`.
+fn say_progress(t: &Instant, stage: &str, step: usize, of: usize) {
+    eprintln!(
+        "  {stage}: {step}/{of} ({:.1} s)",
+        t.elapsed().as_secs_f64()
+    );
 }

@@ -685,7 +685,7 @@ pub(crate) const EDGE_MARGIN: f32 = 1e-5;
 /// vector against the f32 edges) is ill-conditioned next to the pole: cos²θ near 1 carries
 /// about three roundings and the edge one, about 3e-7 in all, which is 1.5e-7 cot θ rad
 /// of θ. Twice that is added, so that a rough cell is trusted only where both paths give
-/// the same cell (a review found 360 × 1440 and 785 × 3,140 disagreeing without it).
+/// the same cell (360 × 1440 and 785 × 3,140 disagreed without it).
 pub(crate) const COT_MARGIN: f32 = 3e-7;
 /// The rough fast path is used only where cells span at least this many radians both
 /// ways (up to about 785 × 3,141 cells): it is tested there.

@@ -86,7 +86,7 @@ impl Bench {
         let r = S {
             provenance,
             quick: self.quick,
-            note: "One thread. ms_per_hemisphere: median over the patches of one exact item buffer; ms_per_row: rows of whole windows around the same patches through rad_pipeline::rows (building the caster included), centres through the scene's default caster. On the mesh scenes every polygon holds one patch, so nothing is estimated (issue 15).",
+            note: "One thread. ms_per_hemisphere: median over the patches of one exact item buffer; ms_per_row: rows of whole windows around the same patches through rad_pipeline::rows (building the caster included), centres through the scene's default caster. On the mesh scenes every polygon holds one patch, so nothing is estimated within a polygon.",
             scaling: section,
         };
         Some(serde_json::to_string_pretty(&r).expect("results serialise") + "\n")
@@ -154,18 +154,7 @@ impl Bench {
         let mut s = String::new();
         let w = &mut s;
         let _ = writeln!(w, "# coherad: extended measurements\n");
-        let _ = writeln!(
-            w,
-            "Written by `{}` at git revision `{}` on {} ({} cores, {} threads, {} build), in {:.1} s.{}",
-            p.command,
-            p.git_revision,
-            p.cpu_model,
-            p.nproc,
-            p.threads,
-            p.profile,
-            wall_seconds,
-            if self.quick { " **Quick run: small settings, for CI; not the reported figures.**" } else { "" }
-        );
+        let _ = writeln!(w, "{}", p.written_by(wall_seconds, self.quick));
         if let Some(sc) = &self.scaling {
             report_scaling(w, sc);
         }

@@ -57,3 +57,25 @@ pub struct Provenance {
     /// The day of the run (UTC), YYYY-MM-DD.
     pub date: String,
 }
+
+impl Provenance {
+    /// The line a report opens with: the command, revision, machine, build and wall time
+    /// (and a warning on a quick run's figures).
+    pub fn written_by(&self, wall_seconds: f64, quick: bool) -> String {
+        format!(
+            "Written by `{}` at git revision `{}` on {} ({} cores, {} threads, {} build), in {:.1} s.{}",
+            self.command,
+            self.git_revision,
+            self.cpu_model,
+            self.nproc,
+            self.threads,
+            self.profile,
+            wall_seconds,
+            if quick {
+                " **Quick run: small settings, for CI; not the reported figures.**"
+            } else {
+                ""
+            }
+        )
+    }
+}

@@ -287,18 +287,7 @@ impl Reproduction {
         let mut s = String::new();
         let w = &mut s;
         let _ = writeln!(w, "# coherad: reproduction report\n");
-        let _ = writeln!(
-            w,
-            "Written by `{}` at git revision `{}` on {} ({} cores, {} threads, {} build), in {:.1} s.{}\n",
-            p.command,
-            p.git_revision,
-            p.cpu_model,
-            p.nproc,
-            p.threads,
-            p.profile,
-            wall_seconds,
-            if self.quick { " **Quick run: small settings, for CI; not the reported figures.**" } else { "" }
-        );
+        let _ = writeln!(w, "{}\n", p.written_by(wall_seconds, self.quick));
         let _ = writeln!(
             w,
             "## Exact hemisphere in the empty cube, against Lambert's formula\n"

@@ -425,7 +425,7 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 /// and the pipeline crate (hashes stored from the binary at 4538061), for exact rows
 /// through both casters and estimated rows in both modes with centres through both.
 /// The loft's were stored again when rows came to be made from the scene divided by
-/// its largest coordinate (12; issue 19): 28 of 8,294,400 cells of 64 hemispheres see
+/// its largest coordinate (12): 28 of 8,294,400 cells of 64 hemispheres see
 /// another patch, one cell's 1.2e-5 at most (`cargo run --release -p rad-repro
 /// --example divided_rows`); the unit cube's, divided by 1, are the same bytes.
 #[test]

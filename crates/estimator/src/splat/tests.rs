@@ -286,7 +286,7 @@ fn rough_cells_are_exact_away_from_edges_and_at_most_one_off_near_them() {
 /// Next to the pole the exact path's own ring test (cos²θ of the f32 vector against the
 /// f32 edges) is ill-conditioned: a rough cell trusted there must still be the cell that
 /// test gives. Points just off the first ring edges, at resolutions where the fast path
-/// runs (a review found 360 × 1440 failing with a margin blind to this).
+/// runs (360 × 1440 failed with a margin blind to this).
 #[test]
 fn sure_cells_agree_with_the_exact_path_next_to_the_pole() {
     use super::{ring_pass, RingOut, RingParams};

@@ -272,7 +272,7 @@ fn a_scratch_moves_between_scenes() {
     }
 }
 
-/// The pentagon above, as found by review (first and last edges 2 % of its size, its
+/// The pentagon above, as found by a check (first and last edges 2 % of its size, its
 /// second vertex 1.5e-4 off the others' plane), seen from 300 small probe patches around
 /// it with random orientations: at 180 × 720 some cell centres fall where the polygon's
 /// plane and the plane of its short edges disagree by several milliradians.

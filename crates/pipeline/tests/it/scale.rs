@@ -1,4 +1,4 @@
-//! Rows do not depend on the scene's scale (issue 19): a scene scaled by any factor
+//! Rows do not depend on the scene's scale: a scene scaled by any factor
 //! from 1e-6 to 1e6, as a file would give it (its coordinates multiplied in f64, its
 //! patch size alike), two-sided polygons among them, gets the same rows within 1e-6 an
 //! entry, by every caster and estimated (they are made from the scene divided by its largest coordinate,
