@@ -108,18 +108,23 @@ class Scene:
         return m
 
     def view_factors(self, by=None, origins=None, enclosure=None, resolution=(180, 720),
-                     caster=None, script_f=None, with_report=False):
+                     caster=None, script_f=None, with_report=False, method=None,
+                     tolerance=None):
         """Surface-to-surface view factors F_IJ (area to area): (names, numpy (m, m)
         matrix), surfaces by "patch", "polygon" or "group" (default: group for a View3D
         file, else polygon); `origins` N: N x N hemispheres a patch (default 2);
         `enclosure`: "raw", "reciprocal" (A_I F_IJ = A_J F_JI, each row keeping its sum)
         or "closed" (also every row summing to 1; default: a View3D file's encl, else
-        raw); `script_f`: Hottel's total exchange factors (default: a View3D file's emit).
+        raw); `script_f`: Hottel's total exchange factors (default: a View3D file's emit);
+        `method`: "auto" (the default: in closed form where no polygon can come between
+        two polygons, from hemispheres elsewhere), "exact" or "hemisphere"; `tolerance`:
+        the closed-form factors' quadrature tolerance (default 1e-10).
         Up to 10,000 surfaces (a dense matrix); more through `coherad viewfactors
         --format bin`. With `with_report`, also (areas, a dict of the errors before and
         after the rule)."""
         names, dense, area, report = self._s.view_factors_raw(
-            by, origins, enclosure, _resolution(resolution), caster, script_f)
+            by, origins, enclosure, _resolution(resolution), caster, script_f, method,
+            tolerance)
         m = len(names)
         matrix = _array(dense, np.float64, (m, m))
         if with_report:

@@ -9,7 +9,7 @@ use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use rad_pipeline::solve::solve_scene;
-use rad_pipeline::viewfactors::{view_factors, Grouping};
+use rad_pipeline::viewfactors::{view_factors, Grouping, ViewFactorMethod};
 use rad_pipeline::{
     pick_method, reflectance_of, settle_method, CasterKind, Enclosure, Hemisphere,
     HemisphereConfig, LoadConfig, MethodChoice, PickedMethod, SceneFile, SolveRequest, Solver,
@@ -196,7 +196,7 @@ impl Scene {
 
     /// Surface view factors: (names, the dense matrix as f64 bytes row by row, areas,
     /// a dict of the enclosure report).
-    #[pyo3(signature = (by = None, origins = None, enclosure = None, resolution = (180, 720), caster = None, script_f = None))]
+    #[pyo3(signature = (by = None, origins = None, enclosure = None, resolution = (180, 720), caster = None, script_f = None, method = None, tolerance = None))]
     #[allow(clippy::too_many_arguments)]
     fn view_factors_raw(
         &self,
@@ -207,6 +207,8 @@ impl Scene {
         resolution: (u32, u32),
         caster: Option<&str>,
         script_f: Option<bool>,
+        method: Option<&str>,
+        tolerance: Option<f64>,
     ) -> PyResult<(Vec<String>, Py<PyBytes>, Py<PyBytes>, Py<PyDict>)> {
         let scene = &self.file.scene;
         let grouping = |by: &str| match by {
@@ -227,8 +229,21 @@ impl Scene {
         };
         // The binary's defaults and checks: a View3D file's surfaces by group, its encl
         // and emit.
+        let method = match method {
+            None => None,
+            Some("auto") => Some(ViewFactorMethod::Auto),
+            Some("exact") => Some(ViewFactorMethod::Exact),
+            Some("hemisphere") => Some(ViewFactorMethod::Hemisphere),
+            Some(m) => {
+                return Err(fail(format!(
+                    "method {m:?}: expected \"auto\", \"exact\" or \"hemisphere\""
+                )))
+            }
+        };
         let request = ViewFactorRequest {
             by: by.map(grouping).transpose()?,
+            method,
+            tolerance,
             origins,
             enclosure: enclosure.map(enclosure_of).transpose()?,
             script_f,
@@ -267,6 +282,9 @@ impl Scene {
         report.set_item("raw_max_row_sum_error", r.raw.row_sum.max)?;
         report.set_item("raw_max_reciprocity_error", r.raw.reciprocity.max)?;
         report.set_item("escaped", vf.escaped.clone())?;
+        report.set_item("method", opts.method.name())?;
+        report.set_item("exact_pairs", vf.exact_pairs)?;
+        report.set_item("hemisphere_pairs", vf.hemisphere_pairs)?;
         report.set_item("back", vf.back.clone())?;
         Ok((
             vf.names.clone(),

@@ -266,22 +266,38 @@ fn viewfactor_rows(v: &Value) -> Vec<(String, String)> {
         .as_array()
         .cloned()
         .unwrap_or_default();
-    let worst = cases
-        .iter()
-        .filter_map(|c| {
-            c["values"].as_array()?.iter().find(|x| x["origins"] == 2)?["error"].as_f64()
-        })
-        .fold(f64::NAN, f64::max);
-    if worst.is_nan() {
-        return Vec::new();
+    // (A value without a method is a hemisphere's: files before `auto`.)
+    let worst = |method: &str, origins: Option<u64>| {
+        cases
+            .iter()
+            .filter_map(|c| {
+                c["values"].as_array()?.iter().find(|x| {
+                    x["method"].as_str().unwrap_or("hemisphere") == method
+                        && origins.is_none_or(|n| x["origins"] == n)
+                })?["error"]
+                    .as_f64()
+            })
+            .fold(f64::NAN, f64::max)
+    };
+    let mut out = Vec::new();
+    let hemisphere = worst("hemisphere", Some(2));
+    if !hemisphere.is_nan() {
+        out.push((
+            format!(
+                "View factors against {} closed forms, from 2×2 hemispheres a patch (180×720): largest error",
+                cases.len()
+            ),
+            format!("{hemisphere:.1e}"),
+        ));
     }
-    vec![(
-        format!(
-            "View factors against {} closed forms, default 2×2 origins a patch, 180×720: largest error",
-            cases.len()
-        ),
-        format!("{worst:.1e}"),
-    )]
+    let auto = worst("auto", None);
+    if !auto.is_nan() {
+        out.push((
+            "The same by `coherad viewfactors`' default, `--method auto` (in closed form where nothing comes between; the plate between two plates from hemispheres): largest error".to_string(),
+            format!("{auto:.1e}"),
+        ));
+    }
+    out
 }
 
 fn rank_rows(v: &Value) -> Vec<(String, String)> {

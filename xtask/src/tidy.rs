@@ -74,8 +74,9 @@ fn no_glob_reexports_should_panic_or_ignore() {
 
 /// The library crates, the pipeline last: the pipeline may depend on the others, the
 /// experiments on all of them.
-const LIBRARIES: [&str; 8] = [
+const LIBRARIES: [&str; 9] = [
     "rad-core",
+    "rad-exact",
     "rad-geometry",
     "rad-accel",
     "rad-hemisphere",
@@ -92,6 +93,7 @@ const LIBRARIES: [&str; 8] = [
 fn allowed() -> BTreeMap<&'static str, &'static [&'static str]> {
     BTreeMap::from([
         ("rad-core", &[][..]),
+        ("rad-exact", &[][..]),
         ("rad-geometry", &["rad-core"][..]),
         ("rad-accel", &["rad-core", "rad-geometry"][..]),
         ("rad-hemisphere", &["rad-core", "rad-geometry"][..]),
@@ -102,7 +104,7 @@ fn allowed() -> BTreeMap<&'static str, &'static [&'static str]> {
         ),
         ("rad-solver", &["rad-core"][..]),
         ("rad-testkit", &["rad-core", "rad-geometry"][..]),
-        ("rad-pipeline", &LIBRARIES[..7]),
+        ("rad-pipeline", &LIBRARIES[..8]),
         ("rad-repro", &LIBRARIES[..]),
         ("coherad", &["rad-pipeline"][..]),
         ("xtask", &["rad-geometry", "rad-pipeline", "rad-repro"][..]),

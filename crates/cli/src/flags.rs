@@ -2,7 +2,7 @@
 //! terms. Help texts are the reference's (docs/cli.md lists each flag).
 
 use clap::{Parser, Subcommand};
-use rad_pipeline::viewfactors::{Grouping, MatrixFormat};
+use rad_pipeline::viewfactors::{Grouping, MatrixFormat, ViewFactorMethod};
 use rad_pipeline::{CasterKind, Enclosure, MethodChoice, Mode, Shading, Solver, Storage};
 use std::path::{Path, PathBuf};
 
@@ -101,6 +101,16 @@ pub struct ViewfactorsArgs {
     /// as its cmb fields say). Default: group for a .vs3 file, else polygon.
     #[arg(long, value_enum)]
     pub by: Option<ByKind>,
+    /// How each pair's factor is made: auto (in closed form, by the double contour
+    /// integral, where no polygon can come between two polygons; from hemispheres
+    /// elsewhere, by patch, and past 2,000 polygons), exact (closed form for every pair:
+    /// an error where a polygon may come between two) or hemisphere (every pair from
+    /// --origins² hemispheres a patch).
+    #[arg(long, value_enum, default_value_t = ViewFactorMethodKind::Auto)]
+    pub method: ViewFactorMethodKind,
+    /// The closed-form factors' quadrature tolerance, relative (default 1e-10).
+    #[arg(long)]
+    pub tolerance: Option<f64>,
     /// N: N x N hemispheres spread over each patch and averaged (area to area; 1 is
     /// point to area, from the patch centre). Default 2.
     #[arg(long, default_value_t = rad_pipeline::viewfactors::DEFAULT_ORIGINS)]
@@ -280,6 +290,13 @@ pub enum EnclosureKind {
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ViewFactorMethodKind {
+    Auto,
+    Exact,
+    Hemisphere,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum FormatKind {
     Json,
     Csv,
@@ -371,6 +388,16 @@ impl ByKind {
             ByKind::Patch => Grouping::Patch,
             ByKind::Polygon => Grouping::Polygon,
             ByKind::Group => Grouping::Group,
+        }
+    }
+}
+
+impl ViewFactorMethodKind {
+    pub fn method(self) -> ViewFactorMethod {
+        match self {
+            ViewFactorMethodKind::Auto => ViewFactorMethod::Auto,
+            ViewFactorMethodKind::Exact => ViewFactorMethod::Exact,
+            ViewFactorMethodKind::Hemisphere => ViewFactorMethod::Hemisphere,
         }
     }
 }

@@ -20,6 +20,8 @@ pub fn run(ctx: &Ctx, args: &ViewfactorsArgs) -> Result<Outcome, Error> {
     let scene = ctx.load(&args.scene)?;
     let request = ViewFactorRequest {
         by: args.by.map(|b| b.grouping()),
+        method: Some(args.method.method()),
+        tolerance: args.tolerance,
         origins: Some(args.origins),
         enclosure: args.enclosure.map(|e| e.enclosure()),
         script_f: args.script_f.then_some(true),
@@ -164,6 +166,15 @@ fn report_and_write(
             "warning: {} surfaces see polygons from behind (first: {:?}); those rays count as \"back\", in no factor",
             backs.len(),
             backs[0]
+        );
+    }
+    if vf.exact_pairs + vf.hemisphere_pairs > 0 {
+        say!(
+            report,
+            "pairs of polygons: {} in closed form, {} from hemispheres ({} polygons cast)",
+            vf.exact_pairs,
+            vf.hemisphere_pairs,
+            vf.hemisphere_polygons
         );
     }
     let r = &vf.report;

@@ -5,7 +5,9 @@
 //! is [`Error::Setting`], named as the binary's flag names it.
 
 use crate::solve::{settle_auto, SceneSolveConfig, Storage};
-use crate::viewfactors::{count_surfaces, Grouping, ViewFactorConfig, MAX_ORIGINS, MAX_SCRIPT_F};
+use crate::viewfactors::{
+    count_surfaces, Grouping, ViewFactorConfig, ViewFactorMethod, MAX_ORIGINS, MAX_SCRIPT_F,
+};
 use crate::{CasterKind, Error, RowMethod, SceneFile};
 use rad_estimator::Mode;
 use rad_hemisphere::Hemisphere;
@@ -162,6 +164,9 @@ pub fn settle_method(
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ViewFactorRequest {
     pub by: Option<Grouping>,
+    pub method: Option<ViewFactorMethod>,
+    /// The closed-form factors' quadrature tolerance (finite, > 0, below 1).
+    pub tolerance: Option<f64>,
     pub origins: Option<u32>,
     pub enclosure: Option<Enclosure>,
     pub script_f: Option<bool>,
@@ -189,6 +194,17 @@ impl ViewFactorRequest {
         config.script_f = self.script_f.unwrap_or(v3.is_some_and(|c| c.emit));
         if let Some(origins) = self.origins {
             config.origins = origins;
+        }
+        if let Some(method) = self.method {
+            config.method = method;
+        }
+        if let Some(t) = self.tolerance {
+            if !(t.is_finite() && t > 0.0 && t < 1.0) {
+                return Err(Error::Setting(format!(
+                    "--tolerance {t}: give a relative tolerance in (0, 1), say 1e-10"
+                )));
+            }
+            config.tolerance = t;
         }
         if let Some(caster) = self.caster {
             config.caster = caster;

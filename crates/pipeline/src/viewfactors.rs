@@ -2,6 +2,10 @@
 //! patch, for area-to-area factors) gathered by patch, polygon or named group, under an
 //! enclosure rule, and written as JSON, CSV or Matrix Market.
 
+mod exact;
+
+pub use exact::PolygonPairs;
+
 use crate::rows::{check_rows, chunk_patches, for_each_chunk, stream_chunks};
 use crate::{rows_with_caster, CasterJob, CasterKind, Error};
 use rad_core::PatchId;
@@ -10,7 +14,7 @@ pub use rad_hemisphere::MAX_ORIGINS;
 use rad_hemisphere::{compute_area_rows, Caster, Hemisphere, Row};
 pub use rad_solver::MAX_SCRIPT_F;
 use rad_solver::{Enclosure, EnclosureReport, SurfaceMatrix};
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::io::Write;
 
 /// What a row of the matrix is.
@@ -42,10 +46,49 @@ impl Grouping {
 /// (see the README's table; one origin leaves close surfaces point to area).
 pub const DEFAULT_ORIGINS: u32 = 2;
 
+/// How a pair of surfaces' factor is made.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ViewFactorMethod {
+    /// In closed form where no polygon can come between a pair of polygons (the double
+    /// contour integral), from hemispheres elsewhere; hemispheres alone by patch and
+    /// past [`EXACT_MAX_POLYGONS`] polygons.
+    Auto,
+    /// In closed form for every pair: an error where a polygon may come between two.
+    Exact,
+    /// From `origins`² hemispheres a patch, every pair.
+    Hemisphere,
+}
+
+impl ViewFactorMethod {
+    pub fn name(self) -> &'static str {
+        match self {
+            ViewFactorMethod::Auto => "auto",
+            ViewFactorMethod::Exact => "exact",
+            ViewFactorMethod::Hemisphere => "hemisphere",
+        }
+    }
+}
+
+/// The relative tolerance of each closed-form factor's outer quadrature unless told
+/// otherwise.
+pub const DEFAULT_TOLERANCE: f64 = 1e-10;
+
+/// What a polygon's closed-form factors leave of its area below this share is their
+/// quadrature's error, not rays escaping.
+const ESCAPE_FLOOR: f64 = 1e-8;
+
+/// Polygons past which `auto` makes every factor from hemispheres: the shaft tests go
+/// as the cube of the polygons.
+pub const EXACT_MAX_POLYGONS: usize = 2_000;
+
 /// How to make a scene's view factors.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ViewFactorConfig {
     pub by: Grouping,
+    pub method: ViewFactorMethod,
+    /// Each closed-form factor's outer quadrature to this, relative to the first
+    /// polygon's area.
+    pub tolerance: f64,
     /// Origins a patch side (`origins²` hemispheres a patch).
     pub origins: u32,
     pub enclosure: Enclosure,
@@ -56,10 +99,13 @@ pub struct ViewFactorConfig {
 }
 
 impl ViewFactorConfig {
-    /// The defaults for `scene`: by polygon, [`DEFAULT_ORIGINS`], raw, the fastest caster.
+    /// The defaults for `scene`: by polygon, auto, [`DEFAULT_ORIGINS`], raw, the fastest
+    /// caster.
     pub fn for_scene(scene: &Scene) -> ViewFactorConfig {
         ViewFactorConfig {
             by: Grouping::Polygon,
+            method: ViewFactorMethod::Auto,
+            tolerance: DEFAULT_TOLERANCE,
             origins: DEFAULT_ORIGINS,
             enclosure: Enclosure::Raw,
             caster: CasterKind::fastest_for(scene),
@@ -99,6 +145,11 @@ pub struct ViewFactors {
     /// reflectance channels (grey surfaces: what View3D's output lists).
     pub emissivity: Vec<f64>,
     pub report: EnclosureReport,
+    /// Pairs of polygons made in closed form and from hemispheres (none of either when
+    /// every factor came from hemispheres), and the polygons whose hemispheres were cast.
+    pub exact_pairs: usize,
+    pub hemisphere_pairs: usize,
+    pub hemisphere_polygons: usize,
 }
 
 /// A patch of an obstruction polygon belongs to no surface.
@@ -250,19 +301,21 @@ fn patch_row(surface: &[u32], row: &Row) -> (Vec<(u32, f64)>, f64) {
     (seen, blocked)
 }
 
-/// Every patch's row but obstructions' (averaged over `opts.origins`² origins), made in
-/// chunks of [`crate::STREAM_CHUNK`] patches in parallel through `opts.caster` and handed
-/// to `sink` in patch order.
+/// Every patch's row but obstructions' (averaged over `opts.origins`² origins), of the
+/// polygons `wanted` says (all if `None`), made in chunks of [`crate::STREAM_CHUNK`]
+/// patches in parallel through `opts.caster` and handed to `sink` in patch order.
 fn for_each_row(
     scene: &Scene,
     hemi: &Hemisphere,
     opts: &ViewFactorConfig,
+    wanted: Option<&[bool]>,
     progress: &(dyn Fn(usize) + Sync),
     sink: &mut (dyn FnMut(&Row) -> Result<(), Error> + Send),
 ) -> Result<(), Error> {
     struct Job<'a, 'g> {
         hemi: &'a Hemisphere,
         origins: u32,
+        wanted: Option<&'a [bool]>,
         progress: &'a (dyn Fn(usize) + Sync),
         sink: &'g mut (dyn FnMut(&Row) -> Result<(), Error> + Send),
     }
@@ -276,7 +329,8 @@ fn for_each_row(
                 |r| {
                     let (mut patches, progress) = chunk_patches(r, self.progress);
                     patches.retain(|&p| {
-                        !scene.is_obstruction(scene.patches()[p as usize].polygon as usize)
+                        let polygon = scene.patches()[p as usize].polygon as usize;
+                        !scene.is_obstruction(polygon) && self.wanted.is_none_or(|w| w[polygon])
                     });
                     let rows = compute_area_rows(
                         scene,
@@ -299,6 +353,7 @@ fn for_each_row(
         Job {
             hemi,
             origins: opts.origins,
+            wanted,
             progress,
             sink,
         },
@@ -354,7 +409,7 @@ pub fn stream_patch_matrix(
         escaping_rows: 0,
         back_rows: 0,
     };
-    for_each_row(scene, hemi, opts, progress, &mut |r| {
+    for_each_row(scene, hemi, opts, None, progress, &mut |r| {
         done.escaping_rows += usize::from(r.escaped > 0.0);
         done.back_rows += usize::from(r.back > 0.0);
         out.row(&patch_row(&surface, r).0).map_err(io)
@@ -403,9 +458,61 @@ pub fn view_factors(
     opts: &ViewFactorConfig,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<ViewFactors, Error> {
-    view_factors_with(scene, opts, &mut |sink| {
-        for_each_row(scene, hemi, opts, progress, sink)
+    let pairs = exact_pairs(scene, opts)?;
+    let wanted = pairs.as_ref().map(|p| p.obstructed.as_slice());
+    // (No hemisphere at all where every pair is clear: not even a caster is built.)
+    let none = wanted.is_some_and(|w| !w.contains(&true));
+    view_factors_with(scene, opts, pairs.as_ref(), &mut |sink| {
+        if none {
+            return Ok(());
+        }
+        for_each_row(scene, hemi, opts, wanted, progress, sink)
     })
+}
+
+/// The polygons' pairs of an `exact` or `auto` run ([`PolygonPairs`]), or `None` where
+/// every factor comes from hemispheres (`hemisphere`; `auto` by patch or past
+/// [`EXACT_MAX_POLYGONS`] polygons); an error for `exact` by patch, or where a polygon
+/// may come between two.
+pub fn exact_pairs(scene: &Scene, opts: &ViewFactorConfig) -> Result<Option<PolygonPairs>, Error> {
+    let n = scene.polygons().len();
+    match opts.method {
+        ViewFactorMethod::Hemisphere => return Ok(None),
+        ViewFactorMethod::Auto if opts.by == Grouping::Patch || n > EXACT_MAX_POLYGONS => {
+            return Ok(None)
+        }
+        ViewFactorMethod::Exact if opts.by == Grouping::Patch => {
+            return Err(Error::Setting(
+                "--method exact makes factors between polygons: use --by polygon or group \
+                 (by patch, --method hemisphere)"
+                    .into(),
+            ))
+        }
+        _ => {}
+    }
+    let pairs = exact::polygon_pairs(scene, &vec![true; n], opts.tolerance)?;
+    if opts.method == ViewFactorMethod::Exact && pairs.n_obstructed > 0 {
+        let name = |k: u32| scene.polygons()[k as usize].name().to_string();
+        let shown: Vec<String> = pairs
+            .first_obstructed
+            .iter()
+            .map(|&(p, q, r)| {
+                format!(
+                    "{:?} and {:?} ({:?} may come between)",
+                    name(p),
+                    name(q),
+                    name(r)
+                )
+            })
+            .collect();
+        return Err(Error::Setting(format!(
+            "--method exact: {} pairs of polygons may have another between them, so their \
+             factors need hemispheres; the first: {}; use --method auto",
+            pairs.n_obstructed,
+            shown.join(", ")
+        )));
+    }
+    Ok(Some(pairs))
 }
 
 /// The patches whose rows view factors take: every patch but obstructions', in order
@@ -476,8 +583,9 @@ pub fn view_factors_of_rows(
             ),
         });
     }
+    let pairs = exact_pairs(scene, opts)?;
     let mut rows = Some(rows);
-    view_factors_with(scene, opts, &mut |sink| {
+    view_factors_with(scene, opts, pairs.as_ref(), &mut |sink| {
         rows.take().into_iter().flatten().try_for_each(|r| sink(&r))
     })
 }
@@ -486,10 +594,11 @@ pub fn view_factors_of_rows(
 type RowFeed<'a> =
     dyn FnMut(&mut (dyn FnMut(&Row) -> Result<(), Error> + Send)) -> Result<(), Error> + 'a;
 
-/// [`view_factors`] with its rows from `feed`.
+/// [`view_factors`] with its rows from `feed`, and the closed-form pairs where given.
 fn view_factors_with(
     scene: &Scene,
     opts: &ViewFactorConfig,
+    pairs: Option<&PolygonPairs>,
     feed: &mut RowFeed<'_>,
 ) -> Result<ViewFactors, Error> {
     let (surface, names) = surfaces(scene, opts.by)?;
@@ -508,6 +617,72 @@ fn view_factors_with(
     for s in 0..n {
         emissivity[s] /= area[s];
     }
+    let (sums, counts) = match pairs {
+        None => (gather_rows(scene, opts, &surface, &area, feed)?, [0; 3]),
+        Some(pairs) => gather_pairs(scene, &surface, &area, pairs, feed)?,
+    };
+    let Sums {
+        rows,
+        escaped,
+        back,
+        obstructed,
+    } = sums;
+    // Rays that met an obstruction or the back of a polygon do not leak (only escaping
+    // rays do); `closed` spreads them over the row, as View3D's encl=1 does. Where some
+    // factors are in closed form and some from hemispheres, a row's sum also carries
+    // their difference (the hemispheres' discretisation), which is no leak either:
+    // there, all that did not escape counts as blocked.
+    let blocked: Vec<f64> = (0..n)
+        .map(|s| match pairs {
+            None => obstructed[s] + back[s],
+            Some(_) => {
+                let seen: f64 = rows[s].iter().map(|e| e.1).sum();
+                (1.0 - seen - escaped[s]).max(0.0)
+            }
+        })
+        .collect();
+    let raw = SurfaceMatrix { area, rows };
+    let (mut matrix, report) = raw.into_enforced(opts.enclosure, &blocked)?;
+    if opts.script_f {
+        matrix = matrix.script_f(&emissivity)?;
+    }
+    Ok(ViewFactors {
+        by: opts.by,
+        origins: opts.origins,
+        enclosure: opts.enclosure,
+        script_f: opts.script_f,
+        names,
+        matrix,
+        escaped,
+        back,
+        obstructed,
+        emissivity,
+        report,
+        exact_pairs: counts[0],
+        hemisphere_pairs: counts[1],
+        hemisphere_polygons: counts[2],
+    })
+}
+
+/// Surface rows (`F_IJ`) and, per surface, the share of rays that escaped, met a back
+/// or an obstruction-only polygon.
+struct Sums {
+    rows: Vec<Vec<(u32, f64)>>,
+    escaped: Vec<f64>,
+    back: Vec<f64>,
+    obstructed: Vec<f64>,
+}
+
+/// Every factor from the hemisphere rows `feed` gives: each surface's patches' rows
+/// summed ([`Gather`]).
+fn gather_rows(
+    scene: &Scene,
+    opts: &ViewFactorConfig,
+    surface: &[u32],
+    area: &[f64],
+    feed: &mut RowFeed<'_>,
+) -> Result<Sums, Error> {
+    let n = area.len();
     // Each surface's patches one run in patch order (by polygon always; by group when
     // groups are contiguous, as a View3D file's are)?
     let contiguous = opts.by != Grouping::Patch && n > 0 && {
@@ -522,7 +697,7 @@ fn view_factors_with(
     let mut gather = Gather {
         scene,
         by: opts.by,
-        surface: &surface,
+        surface,
         rows: if opts.by == Grouping::Patch || contiguous {
             Vec::new()
         } else {
@@ -579,27 +754,105 @@ fn view_factors_with(
             obstructed[s] /= area[s];
         }
     }
-    let raw = SurfaceMatrix { area, rows };
-    // Rays that met an obstruction or the back of a polygon do not leak (only escaping
-    // rays do); `closed` spreads them over the row, as View3D's encl=1 does.
-    let blocked: Vec<f64> = (0..n).map(|s| obstructed[s] + back[s]).collect();
-    let (mut matrix, report) = raw.into_enforced(opts.enclosure, &blocked)?;
-    if opts.script_f {
-        matrix = matrix.script_f(&emissivity)?;
-    }
-    Ok(ViewFactors {
-        by: opts.by,
-        origins: opts.origins,
-        enclosure: opts.enclosure,
-        script_f: opts.script_f,
-        names,
-        matrix,
+    Ok(Sums {
+        rows,
         escaped,
         back,
         obstructed,
-        emissivity,
-        report,
     })
+}
+
+/// The closed-form factors of `pairs`' clear pairs of polygons and, for the rest, the
+/// hemisphere rows `feed` gives of the polygons [`PolygonPairs::obstructed`] marks (any
+/// other row is passed over), summed polygon to polygon, then surface to surface; the
+/// counts of pairs made each way and of polygons cast.
+fn gather_pairs(
+    scene: &Scene,
+    surface: &[u32],
+    area: &[f64],
+    pairs: &PolygonPairs,
+    feed: &mut RowFeed<'_>,
+) -> Result<(Sums, [usize; 3]), Error> {
+    let polygons = scene.polygons();
+    let patch_polygon = |j: u32| scene.patches()[j as usize].polygon;
+    let clear: HashSet<(u32, u32)> = pairs.clear.iter().map(|&(p, q, _, _)| (p, q)).collect();
+    let is_clear = |p: u32, q: u32| clear.contains(&(p.min(q), p.max(q)));
+    // A_p F_pq by polygon, each row in order of q.
+    let mut by_polygon: Vec<BTreeMap<u32, f64>> = vec![BTreeMap::new(); polygons.len()];
+    // Per polygon: what escaped, met a back (hemisphere rows only).
+    let mut escaped = vec![0.0; polygons.len()];
+    let mut back = vec![0.0; polygons.len()];
+    let mut hemisphere_pairs: HashSet<(u32, u32)> = HashSet::new();
+    feed(&mut |r| {
+        let p = patch_polygon(r.patch);
+        if !pairs.obstructed[p as usize] {
+            return Ok(());
+        }
+        let a = scene.patches()[r.patch as usize].area;
+        for &(j, f) in &r.entries {
+            let q = patch_polygon(j);
+            if q != p && !is_clear(p, q) {
+                *by_polygon[p as usize].entry(q).or_insert(0.0) += a * f;
+                hemisphere_pairs.insert((p.min(q), p.max(q)));
+            }
+        }
+        escaped[p as usize] += a * r.escaped;
+        back[p as usize] += a * r.back;
+        Ok(())
+    })?;
+    for &(p, q, af, _) in &pairs.clear {
+        *by_polygon[p as usize].entry(q).or_insert(0.0) += af;
+        *by_polygon[q as usize].entry(p).or_insert(0.0) += af;
+    }
+    // A polygon cast by no hemisphere: what its closed-form factors leave escapes
+    // (nothing, within their quadrature, in a closed scene).
+    for (p, row) in by_polygon.iter().enumerate() {
+        if !pairs.obstructed[p] {
+            let seen: f64 = row.values().sum();
+            let left = polygons[p].area() - seen;
+            escaped[p] = if left > ESCAPE_FLOOR * polygons[p].area() {
+                left
+            } else {
+                0.0
+            };
+        }
+    }
+    let n = area.len();
+    let surface_of = |p: usize| surface[polygons[p].first_patch() as usize];
+    let mut rows: Vec<BTreeMap<u32, f64>> = vec![BTreeMap::new(); n];
+    let mut sums = Sums {
+        rows: Vec::new(),
+        escaped: vec![0.0; n],
+        back: vec![0.0; n],
+        obstructed: vec![0.0; n],
+    };
+    for (p, row) in by_polygon.iter().enumerate() {
+        let s = surface_of(p);
+        if s == NO_SURFACE {
+            continue;
+        }
+        let s = s as usize;
+        for (&q, &v) in row {
+            match surface_of(q as usize) {
+                NO_SURFACE => sums.obstructed[s] += v,
+                t => *rows[s].entry(t).or_insert(0.0) += v,
+            }
+        }
+        sums.escaped[s] += escaped[p];
+        sums.back[s] += back[p];
+    }
+    sums.rows = rows
+        .into_iter()
+        .enumerate()
+        .map(|(s, row)| row.into_iter().map(|(t, v)| (t, v / area[s])).collect())
+        .collect();
+    for s in 0..n {
+        sums.escaped[s] /= area[s];
+        sums.back[s] /= area[s];
+        sums.obstructed[s] /= area[s];
+    }
+    let cast = pairs.obstructed.iter().filter(|&&o| o).count();
+    Ok((sums, [pairs.clear.len(), hemisphere_pairs.len(), cast]))
 }
 
 /// The formats [`write_view_factors`] writes.

@@ -285,16 +285,20 @@ fn report_ranks(w: &mut String, r: &Ranks, cores: usize) {
 fn report_viewfactors(w: &mut String, v: &ViewFactorResults) {
     let _ = writeln!(
         w,
-        "\n## View factors against closed forms (viewfactors.json)\n\n`coherad viewfactors` by polygon at {}x{}, every surface 10 x 10 patches, N x N origins a patch; the error is |F − closed form| (for the 96-gon discs, less half the gap between the unit discs' 0.381966 and the 0.381844 of discs of the 96-gon's area).\n",
+        "\n## View factors against closed forms (viewfactors.json)\n\n`coherad viewfactors` by polygon at {}x{}, every surface 10 x 10 patches, N x N origins a patch (`hemisphere`), or `auto` (in closed form where no polygon comes between the two, else from hemispheres at the default origins); the error is |F − closed form| (for the 96-gon discs, less half the gap between the unit discs' 0.381966 and the 0.381844 of discs of the 96-gon's area).\n",
         v.resolution[0], v.resolution[1]
     );
-    let origins: Vec<u32> = v
-        .cases
-        .first()
-        .map_or(Vec::new(), |c| c.values.iter().map(|o| o.origins).collect());
-    let head: Vec<String> = origins.iter().map(|n| format!("origins {n}")).collect();
+    let head: Vec<String> = v.cases.first().map_or(Vec::new(), |c| {
+        c.values
+            .iter()
+            .map(|o| match o.method {
+                "hemisphere" => format!("origins {}", o.origins),
+                m => m.to_string(),
+            })
+            .collect()
+    });
     let _ = writeln!(w, "| case | closed form | {} |", head.join(" | "));
-    let _ = writeln!(w, "|---|---|{}", "---|".repeat(origins.len()));
+    let _ = writeln!(w, "|---|---|{}", "---|".repeat(head.len()));
     for c in &v.cases {
         let cells: Vec<String> = c
             .values
@@ -311,16 +315,19 @@ fn report_viewfactors(w: &mut String, v: &ViewFactorResults) {
     }
     let _ = writeln!(
         w,
-        "\nThe unit cube's 36 face factors at the default origins: largest error {:.1e}.\n",
-        v.cube_max_error
+        "\nThe unit cube's 36 face factors: largest error {:.1e} at the default origins, {:.1e} by auto.\n",
+        v.cube_max_error, v.cube_max_error_auto
     );
-    let _ = writeln!(w, "| scene | surfaces | patches | origins | hemispheres | resolution | enclosure | threads | time | nonzeros | raw max \\|1 − row sum\\| | raw reciprocity error (median, max) | largest change |");
-    let _ = writeln!(w, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(w, "| scene | method (pairs exact, from hemispheres) | surfaces | patches | origins | hemispheres | resolution | enclosure | threads | time | nonzeros | raw max \\|1 − row sum\\| | raw reciprocity error (median, max) | largest change |");
+    let _ = writeln!(
+        w,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
     for r in &v.scale {
         let _ = writeln!(
             w,
-            "| {} | {} | {} | {} | {} | {}x{} | {} | {} | {:.1} s | {} | {:.1e} | {:.1e}, {:.1e} | {:.1e} |",
-            r.scene, r.surfaces, r.patches, r.origins, r.hemispheres, r.resolution[0], r.resolution[1],
+            "| {} | {} ({}, {}) | {} | {} | {} | {} | {}x{} | {} | {} | {:.1} s | {} | {:.1e} | {:.1e}, {:.1e} | {:.1e} |",
+            r.scene, r.method, r.exact_pairs, r.hemisphere_pairs, r.surfaces, r.patches, r.origins, r.hemispheres, r.resolution[0], r.resolution[1],
             r.enclosure, r.threads, r.seconds, r.nonzeros, r.raw_row_sum_error_max,
             r.raw_reciprocity_error_median, r.raw_reciprocity_error_max, r.max_change
         );

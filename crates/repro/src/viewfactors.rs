@@ -10,7 +10,9 @@ use glam::Vec3;
 use rad_core::Rgb;
 use rad_geometry::scenes::{cube, loft, urban_canyon};
 use rad_geometry::{Material, PatchGrid, PolygonDesc, Scene, SceneDesc};
-use rad_pipeline::viewfactors::{view_factors, Grouping, ViewFactorConfig};
+use rad_pipeline::viewfactors::{
+    view_factors, Grouping, ViewFactorConfig, ViewFactorMethod, DEFAULT_ORIGINS,
+};
 use rad_pipeline::{Enclosure, Hemisphere, HemisphereConfig};
 use serde::Serialize;
 use std::time::Instant;
@@ -146,9 +148,12 @@ pub fn closed_form_cases() -> Vec<ClosedFormCase> {
     ]
 }
 
-/// One case at one origin count.
+/// One case by one method (`hemisphere` at one origin count, or `auto`: in closed form
+/// where no polygon comes between the pair, else from hemispheres at the default
+/// origins).
 #[derive(Clone, Debug, Serialize)]
 pub struct OriginValue {
+    pub method: &'static str,
     pub origins: u32,
     pub value: f64,
     /// |value − reference| less the reference's own slack (≥ 0).
@@ -168,6 +173,10 @@ pub struct CaseResult {
 #[derive(Clone, Debug, Serialize)]
 pub struct ScaleRun {
     pub scene: &'static str,
+    pub method: &'static str,
+    /// Pairs of polygons in closed form and from hemispheres (auto).
+    pub exact_pairs: usize,
+    pub hemisphere_pairs: usize,
     pub by: &'static str,
     pub surfaces: usize,
     pub patches: usize,
@@ -190,13 +199,20 @@ pub struct ViewFactorResults {
     pub resolution: [u32; 2],
     pub cases: Vec<CaseResult>,
     /// The unit cube (10 × 10 patches a face) at the default origins: the largest
-    /// error of its opposite and adjacent face factors.
+    /// error of its opposite and adjacent face factors, from hemispheres and by auto.
     pub cube_max_error: f64,
+    pub cube_max_error_auto: f64,
     pub scale: Vec<ScaleRun>,
 }
 
-fn options(scene: &Scene, origins: u32, enclosure: Enclosure) -> ViewFactorConfig {
+fn options(
+    scene: &Scene,
+    method: ViewFactorMethod,
+    origins: u32,
+    enclosure: Enclosure,
+) -> ViewFactorConfig {
     ViewFactorConfig {
+        method,
         origins,
         enclosure,
         ..ViewFactorConfig::for_scene(scene)
@@ -218,11 +234,17 @@ pub fn run(
         progress("view factors: closed forms", k, 5);
         let scene = Scene::new(case.scene)?;
         let mut values = Vec::new();
-        for &n in origins {
+        let ways = origins
+            .iter()
+            .map(|&n| (ViewFactorMethod::Hemisphere, n))
+            .chain([(ViewFactorMethod::Auto, DEFAULT_ORIGINS)]);
+        for (method, n) in ways {
             let t = Instant::now();
-            let vf = view_factors(&scene, &hemi, &options(&scene, n, Enclosure::Raw), &|_| {})?;
+            let config = options(&scene, method, n, Enclosure::Raw);
+            let vf = view_factors(&scene, &hemi, &config, &|_| {})?;
             let value = vf.matrix.get(case.from, case.to);
             values.push(OriginValue {
+                method: method.name(),
                 origins: n,
                 value,
                 error: ((value - case.reference).abs() - case.slack).max(0.0),
@@ -237,39 +259,52 @@ pub fn run(
         });
     }
     let scene = Scene::new(cube(10))?;
-    let vf = view_factors(&scene, &hemi, &options(&scene, 2, Enclosure::Raw), &|_| {})?;
-    let mut cube_max_error: f64 = 0.0;
-    for i in 0..6 {
-        for j in 0..6 {
-            let d = scene.polygons()[i]
-                .normal()
-                .dot(scene.polygons()[j].normal());
-            let want = if d > 0.5 {
-                0.0
-            } else if d < -0.5 {
-                parallel_rectangles(1.0, 1.0)
-            } else {
-                perpendicular_rectangles(1.0, 1.0)
-            };
-            cube_max_error = cube_max_error.max((vf.matrix.get(i, j) - want).abs());
+    let cube_error = |method| -> Result<f64, Error> {
+        let config = options(&scene, method, DEFAULT_ORIGINS, Enclosure::Raw);
+        let vf = view_factors(&scene, &hemi, &config, &|_| {})?;
+        let mut worst: f64 = 0.0;
+        for i in 0..6 {
+            for j in 0..6 {
+                let d = scene.polygons()[i]
+                    .normal()
+                    .dot(scene.polygons()[j].normal());
+                let want = if d > 0.5 {
+                    0.0
+                } else if d < -0.5 {
+                    parallel_rectangles(1.0, 1.0)
+                } else {
+                    perpendicular_rectangles(1.0, 1.0)
+                };
+                worst = worst.max((vf.matrix.get(i, j) - want).abs());
+            }
         }
-    }
+        Ok(worst)
+    };
+    let cube_max_error = cube_error(ViewFactorMethod::Hemisphere)?;
+    let cube_max_error_auto = cube_error(ViewFactorMethod::Auto)?;
     let big = if quick { (9, 36) } else { (nt, np) };
     let big_hemi = Hemisphere::new(HemisphereConfig::exact(big.0, big.1))?;
     let mut scale = Vec::new();
-    let runs: [(&'static str, SceneDesc, u32, Enclosure); 2] = [
-        ("loft", loft(), if quick { 1 } else { 2 }, Enclosure::Closed),
-        ("canyon", urban_canyon(), 1, Enclosure::Raw),
+    let (hemisphere, auto) = (ViewFactorMethod::Hemisphere, ViewFactorMethod::Auto);
+    let loft_n = if quick { 1 } else { 2 };
+    let runs: [(&'static str, SceneDesc, ViewFactorMethod, u32, Enclosure); 3] = [
+        ("loft", loft(), hemisphere, loft_n, Enclosure::Closed),
+        ("loft", loft(), auto, loft_n, Enclosure::Closed),
+        ("canyon", urban_canyon(), hemisphere, 1, Enclosure::Raw),
     ];
-    for (k, (name, desc, n, enclosure)) in runs.into_iter().enumerate() {
-        progress("view factors: at scale", k, 2);
+    for (k, (name, desc, method, n, enclosure)) in runs.into_iter().enumerate() {
+        progress("view factors: at scale", k, 3);
         let scene = Scene::new(desc)?;
         let t = Instant::now();
-        let vf = view_factors(&scene, &big_hemi, &options(&scene, n, enclosure), &|_| {})?;
+        let config = options(&scene, method, n, enclosure);
+        let vf = view_factors(&scene, &big_hemi, &config, &|_| {})?;
         let seconds = t.elapsed().as_secs_f64();
         let r = &vf.report;
         scale.push(ScaleRun {
             scene: name,
+            method: method.name(),
+            exact_pairs: vf.exact_pairs,
+            hemisphere_pairs: vf.hemisphere_pairs,
             by: Grouping::Polygon.name(),
             surfaces: vf.names.len(),
             patches: scene.patches().len(),
@@ -291,6 +326,7 @@ pub fn run(
         resolution: [nt, np],
         cases: out,
         cube_max_error,
+        cube_max_error_auto,
         scale,
     })
 }
