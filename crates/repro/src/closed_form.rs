@@ -2,6 +2,7 @@
 //! discs, and parallel plates with an obstruction between them (exact by superposition
 //! of point-to-rectangle factors, integrated by Gauss-Legendre).
 
+use rad_geometry::Scene;
 use std::f64::consts::PI;
 
 /// Parallel, directly opposed rectangles `x × y` at distance 1 (lengths in units of the
@@ -147,5 +148,16 @@ mod tests {
         // Reciprocity of the disc formula: A1 F12 = A2 F21.
         let (f12, f21) = (coaxial_discs(1.0, 2.0, 1.5), coaxial_discs(2.0, 1.0, 1.5));
         assert!((f12 - 4.0 * f21).abs() < 1e-12);
+    }
+}
+
+/// The factor from face `i` to face `j` of a unit cube's scene (its polygons the six
+/// faces): 0 to itself, C-11 to the opposite face, C-14 to the four beside it.
+pub fn unit_cube_face_factor(scene: &Scene, i: usize, j: usize) -> f64 {
+    let normal = |k: usize| scene.polygons()[k].normal();
+    match normal(i).dot(normal(j)) {
+        d if d > 0.5 => 0.0,
+        d if d < -0.5 => parallel_rectangles(1.0, 1.0),
+        _ => perpendicular_rectangles(1.0, 1.0),
     }
 }

@@ -4,6 +4,7 @@
 
 use crate::closed_form::{
     coaxial_discs, obstructed_parallel_squares, parallel_rectangles, perpendicular_rectangles,
+    unit_cube_face_factor,
 };
 use crate::Error;
 use glam::Vec3;
@@ -265,16 +266,7 @@ pub fn run(
         let mut worst: f64 = 0.0;
         for i in 0..6 {
             for j in 0..6 {
-                let d = scene.polygons()[i]
-                    .normal()
-                    .dot(scene.polygons()[j].normal());
-                let want = if d > 0.5 {
-                    0.0
-                } else if d < -0.5 {
-                    parallel_rectangles(1.0, 1.0)
-                } else {
-                    perpendicular_rectangles(1.0, 1.0)
-                };
+                let want = unit_cube_face_factor(&scene, i, j);
                 worst = worst.max((vf.matrix.get(i, j) - want).abs());
             }
         }

@@ -10,7 +10,7 @@ use rad_pipeline::viewfactors::{
 };
 use rad_pipeline::{Enclosure, Hemisphere, HemisphereConfig};
 use rad_repro::closed_form::{
-    obstructed_parallel_squares, parallel_rectangles, perpendicular_rectangles,
+    obstructed_parallel_squares, parallel_rectangles, unit_cube_face_factor,
 };
 
 fn white() -> Vec<Material> {
@@ -128,16 +128,7 @@ fn auto_closes_the_cube_without_a_hemisphere() {
         assert!((sum - 1.0).abs() < 1e-9, "row {i}: {sum}");
         assert!(vf.escaped[i] < 1e-9, "row {i}: {}", vf.escaped[i]);
         for j in 0..6 {
-            let d = scene.polygons()[i]
-                .normal()
-                .dot(scene.polygons()[j].normal());
-            let want = if d > 0.5 {
-                0.0
-            } else if d < -0.5 {
-                parallel_rectangles(1.0, 1.0)
-            } else {
-                perpendicular_rectangles(1.0, 1.0)
-            };
+            let want = unit_cube_face_factor(&scene, i, j);
             assert!((vf.matrix.get(i, j) - want).abs() < 1e-9, "{i} {j}");
         }
     }
@@ -187,19 +178,10 @@ fn closed_forms_within_1e3_at_the_defaults_and_closer_with_more_origins() {
 fn the_unit_cubes_face_factors() {
     let scene = Scene::new(rad_geometry::scenes::cube(10)).unwrap();
     let vf = run(&scene, DEFAULT_ORIGINS, Enclosure::Raw, Grouping::Polygon);
-    let (par, perp) = (
-        parallel_rectangles(1.0, 1.0),
-        perpendicular_rectangles(1.0, 1.0),
-    );
-    let normal = |k: usize| scene.polygons()[k].normal();
     for i in 0..6 {
         for j in 0..6 {
             let f = vf.matrix.get(i, j);
-            let want = match normal(i).dot(normal(j)) {
-                d if d > 0.5 => 0.0,
-                d if d < -0.5 => par,
-                _ => perp,
-            };
+            let want = unit_cube_face_factor(&scene, i, j);
             assert!(
                 (f - want).abs() < 1e-3,
                 "F_{i}{j} = {f}, closed form {want}"
