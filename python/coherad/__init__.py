@@ -145,12 +145,15 @@ class Scene:
         return (b, report) if with_report else b
 
 
-def load(path, patch_size=None, triangulate=False, reflectance=None, materials=None):
+def load(path, patch_size=None, triangulate=False, reflectance=None, materials=None,
+         repair=False, weld=None):
     """Loads and validates a scene file (the formats and options of the `coherad`
     binary: `patch_size` for mesh files, `triangulate` for concave and warped faces,
     `reflectance` (one or three values) for faces without a material, `materials` a
-    side file of materials and face rules)."""
+    side file of materials and face rules, `repair` to mend a mesh as `--repair` does,
+    with `weld` its welding distance). `Scene.notes` says what loading did."""
     if reflectance is not None:
         reflectance = [float(reflectance)] if np.isscalar(reflectance) else [float(r) for r in reflectance]
     return Scene(_native.load(str(path), patch_size, bool(triangulate), reflectance,
-                              None if materials is None else str(materials)))
+                              None if materials is None else str(materials),
+                              bool(repair), None if weld is None else float(weld)))

@@ -102,26 +102,12 @@ impl Scene {
     fn n_polygons(&self) -> usize {
         self.file.scene.polygons().len()
     }
-    /// Warnings and notes from loading (what `--triangulate` did, clamped values).
+    /// Warnings and notes from loading (what `--triangulate` and `--repair` did or
+    /// would do, clamped values).
     #[getter]
     fn notes(&self) -> Vec<String> {
-        let t = &self.file.triangulation;
-        let mut out = Vec::new();
-        if t.split > 0 {
-            out.push(format!(
-                "split {} concave or warped faces into {} triangles",
-                t.split, t.triangles
-            ));
-        }
-        if t.dropped > 0 {
-            out.push(format!(
-                "dropped {} degenerate faces or pieces (first: {})",
-                t.dropped,
-                t.first_dropped.as_deref().unwrap_or("?")
-            ));
-        }
-        out.extend(self.file.notes.iter().cloned());
-        out
+        let notes = self.file.load_notes();
+        notes.into_iter().map(|n| n.text).collect()
     }
 
     /// The patches as bytes: centre (f32 × 3), normal (f32 × 3), area (f64), polygon (u32).
@@ -350,7 +336,7 @@ impl Scene {
 
 /// Loads and validates a scene file (any format the `coherad` binary reads).
 #[pyfunction]
-#[pyo3(signature = (path, patch_size = None, triangulate = false, reflectance = None, materials = None))]
+#[pyo3(signature = (path, patch_size = None, triangulate = false, reflectance = None, materials = None, repair = false, weld = None))]
 fn load(
     py: Python<'_>,
     path: PathBuf,
@@ -358,6 +344,8 @@ fn load(
     triangulate: bool,
     reflectance: Option<Vec<f64>>,
     materials: Option<PathBuf>,
+    repair: bool,
+    weld: Option<f64>,
 ) -> PyResult<Scene> {
     let reflectance = reflectance
         .as_deref()
@@ -369,6 +357,8 @@ fn load(
         triangulate,
         reflectance,
         materials,
+        repair,
+        weld,
     };
     let file = py
         .detach(|| SceneFile::load_with(&path, &config))

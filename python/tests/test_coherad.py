@@ -101,6 +101,16 @@ def test_errors_are_exceptions_with_the_clis_messages(tmp_path):
         coherad.load(bad, patch_size=0.5)
     mended = coherad.load(bad, patch_size=0.5, triangulate=True)
     assert mended.n_polygons == 4 and any("split 1" in n for n in mended.notes)
+    # A tetrahedron with one face turned over: a warning naming repair, then mended.
+    tet = tmp_path / "tet.obj"
+    tet.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
+                   "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 4 3\n")
+    assert any("--repair would mend this mesh: 1 face turned over" in n
+               for n in coherad.load(tet, patch_size=1).notes)
+    mended = coherad.load(tet, patch_size=1, repair=True)
+    assert any(n.startswith("repaired: 1 face turned over") for n in mended.notes), mended.notes
+    with pytest.raises(coherad.CoheradError, match="--weld"):
+        coherad.load(tet, patch_size=1, repair=True, weld=-1)
     scene = coherad.load(CUBE)
     for call, text in [
         (lambda: scene.form_factors((0, 10)), "resolution"),

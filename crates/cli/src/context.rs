@@ -28,8 +28,8 @@ pub type MakeRows<'a> =
     dyn Fn(&[u32], &(dyn Fn(usize) + Sync)) -> Result<Rows, rad_pipeline::Error> + Sync + 'a;
 
 impl Ctx<'_> {
-    /// Loads a scene file as the global flags say; notes what `--triangulate` split,
-    /// warns of what it dropped, and notes what was read with a change.
+    /// Loads a scene file as the global flags say; says what loading
+    /// did ([`SceneFile::load_notes`]): notes, and warnings even when quiet.
     pub fn load(&self, path: &Path) -> Result<SceneFile, Error> {
         let cli = self.cli;
         let reflectance = cli
@@ -42,29 +42,16 @@ impl Ctx<'_> {
             triangulate: cli.triangulate,
             reflectance,
             materials: cli.materials.clone(),
+            repair: cli.repair,
+            weld: cli.weld,
         };
         let scene = SceneFile::load_with(path, &config)?;
-        let t = &scene.triangulation;
-        if t.split > 0 {
-            say!(
-                self.report,
-                "note: {}: split {} concave or warped faces into {} triangles",
-                path.display(),
-                t.split,
-                t.triangles
-            );
-        }
-        if t.dropped > 0 {
-            warning!(
-                self.report,
-                "warning: {}: dropped {} degenerate faces or pieces (first: {})",
-                path.display(),
-                t.dropped,
-                t.first_dropped.as_deref().unwrap_or("?")
-            );
-        }
-        for note in &scene.notes {
-            say!(self.report, "note: {}: {note}", path.display());
+        for note in scene.load_notes() {
+            if note.warning {
+                warning!(self.report, "warning: {}: {}", path.display(), note.text);
+            } else {
+                say!(self.report, "note: {}: {}", path.display(), note.text);
+            }
         }
         Ok(scene)
     }

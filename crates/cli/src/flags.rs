@@ -37,6 +37,16 @@ pub struct Cli {
     /// ones, with a count, instead of refusing the file.
     #[arg(long, global = true)]
     pub triangulate: bool,
+    /// Mend a mesh as it comes: weld vertices closer than --weld, drop duplicate faces
+    /// and faces folded onto a coplanar neighbour, orient each connected piece
+    /// consistently (closed pieces outward, or inward if they enclose the scene); with
+    /// a report of what changed.
+    #[arg(long, global = true)]
+    pub repair: bool,
+    /// The welding distance of --repair, in scene units (default: 1e-6 of the scene's
+    /// bounding-box diagonal; 0 welds only identical positions).
+    #[arg(long, global = true, value_name = "DIST", requires = "repair", value_parser = weld_distance)]
+    pub weld: Option<f64>,
     /// Reflectance of faces with no material (PLY, STL; OBJ and glTF faces that name
     /// none): R or R,G,B, each in [0, 1). Default 0.5.
     #[arg(long, global = true, value_name = "R[,G,B]")]
@@ -482,5 +492,15 @@ mod tests {
         assert_eq!(matrix_format(None, out), MatrixFormat::Csv);
         assert_eq!(matrix_format(Some(FormatKind::Mtx), out), MatrixFormat::Mtx);
         assert_eq!(matrix_format(None, None), MatrixFormat::Json);
+    }
+}
+
+/// A `--weld` distance: finite, at least 0.
+fn weld_distance(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(d) if d.is_finite() && d >= 0.0 => Ok(d),
+        _ => Err(format!(
+            "{text:?} is not a distance: give a finite number >= 0"
+        )),
     }
 }

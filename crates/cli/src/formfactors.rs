@@ -44,7 +44,7 @@ pub fn run(ctx: &Ctx, args: &FormfactorsArgs) -> Result<Outcome, Error> {
         let polygon = scene_.patches()[first.patch as usize].polygon as usize;
         warning!(
             ctx.report,
-            "warning: {} row(s) see polygons from behind (their \"back\" form factor is > 0; most: patch {} of polygon {polygon} ({:?}), {:.3e} of its hemisphere)",
+            "warning: {} row(s) see polygons from behind (their \"back\" form factor is > 0; most: patch {} of polygon {polygon} ({:?}), {:.3e} of its hemisphere); a mesh whose faces are wound inconsistently is oriented by --repair",
             backs.len(),
             first.patch,
             scene_.polygons()[polygon].name(),

@@ -163,7 +163,7 @@ fn report_and_write(
     if !backs.is_empty() {
         warning!(
             report,
-            "warning: {} surfaces see polygons from behind (first: {:?}); those rays count as \"back\", in no factor",
+            "warning: {} surfaces see polygons from behind (first: {:?}); those rays count as \"back\", in no factor; a mesh whose faces are wound inconsistently is oriented by --repair",
             backs.len(),
             backs[0]
         );

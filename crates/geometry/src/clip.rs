@@ -76,3 +76,15 @@ pub(crate) fn polygon_area_centroid(points: &[[f64; 2]]) -> (f64, [f64; 2]) {
     }
     (0.5 * a2, [o[0] + cx / (3.0 * a2), o[1] + cy / (3.0 * a2)])
 }
+
+/// Two unit axes spanning the plane of unit normal `normal` (`ex` × `ey` = `normal`):
+/// the frame every 2-D clip of coplanar polygons is made in.
+pub(crate) fn plane_frame(normal: glam::DVec3) -> (glam::DVec3, glam::DVec3) {
+    let helper = if normal.x.abs() < 0.9 {
+        glam::DVec3::X
+    } else {
+        glam::DVec3::Y
+    };
+    let ex = normal.cross(helper).normalize();
+    (ex, normal.cross(ex))
+}

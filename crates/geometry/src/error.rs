@@ -68,7 +68,7 @@ pub enum Error {
     },
     #[error("material name {name:?} is defined twice")]
     DuplicateMaterial { name: String },
-    #[error("polygons {a} ({a_name:?}) and {b} ({b_name:?}) lie in one plane, face the same way and overlap (shared area {area:e}): rays would meet only polygon {a}, and polygon {b} would silently receive no light; remove one, or cut them apart")]
+    #[error("polygons {a} ({a_name:?}) and {b} ({b_name:?}) lie in one plane, face the same way and overlap (shared area {area:e}): rays would meet only polygon {a}, and polygon {b} would silently receive no light; remove one, or cut them apart (--repair drops exact duplicates and faces folded onto a neighbour across a shared edge)")]
     Overlap {
         a: usize,
         a_name: String,

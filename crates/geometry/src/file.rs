@@ -1,6 +1,7 @@
 //! Scene files: the project's JSON format (read and written), OBJ/MTL through tobj,
 //! View3D's `.vs3`, PLY and STL meshes, and glTF/GLB; a material side file for formats
-//! without materials; `--triangulate` for concave and warped faces.
+//! without materials; `--triangulate` for concave and warped faces; `--repair` for
+//! meshes' defects.
 //! This module is the only place in the workspace that reads scene files.
 
 mod gltf;
@@ -20,6 +21,7 @@ pub use obj::{load_obj, obj_from_bytes};
 pub use vs3::{load_vs3, vs3_from_text, View3dControl, VS3_DEFAULT_GRID};
 
 use crate::error::Error;
+use crate::repair::{repair, survey, Repair};
 use crate::scene::{Scene, SceneDesc};
 use crate::triangulate::{triangulate, Triangulation};
 use rad_core::Rgb;
@@ -27,6 +29,9 @@ use std::path::{Path, PathBuf};
 
 /// The extensions [`load`] reads.
 pub const SCENE_EXTENSIONS: &[&str] = &["json", "obj", "vs3", "ply", "stl", "gltf", "glb"];
+
+/// The extensions of mesh files, whose defects a load surveys (see [`Loaded::repair`]).
+pub const MESH_EXTENSIONS: &[&str] = &["obj", "ply", "stl", "gltf", "glb"];
 
 /// How a scene file is read.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -40,6 +45,12 @@ pub struct LoadConfig {
     pub reflectance: Option<Rgb>,
     /// A material side file ([`apply_material_map`]).
     pub materials: Option<PathBuf>,
+    /// Repair the mesh ([`repair`]): weld, drop collapsed, duplicate and folded faces,
+    /// orient each piece.
+    pub repair: bool,
+    /// The welding distance of `repair`, in scene units (default: [`WELD_RELATIVE`] of
+    /// the bounding-box diagonal).
+    pub weld: Option<f64>,
 }
 
 /// A scene file as read, before validation.
@@ -50,12 +61,16 @@ pub struct Loaded {
     pub view3d: Option<View3dControl>,
     /// What `--triangulate` did (all zero without it).
     pub triangulation: Triangulation,
+    /// With `repair`, what it changed; without, for a mesh file (OBJ, PLY, STL, glTF),
+    /// what it would change ([`survey`]); empty otherwise.
+    pub repair: Repair,
     /// What was read with a change worth a warning, and what the material file did.
     pub notes: Vec<String>,
 }
 
 /// Reads a scene file, by extension (see [`SCENE_EXTENSIONS`]), into a description:
-/// the side file's materials applied, then faces triangulated if asked.
+/// the side file's materials applied, then faces triangulated and the mesh repaired if
+/// asked.
 pub fn load(path: &Path, options: &LoadConfig) -> Result<Loaded, Error> {
     let ext = path
         .extension()
@@ -98,10 +113,18 @@ pub fn load(path: &Path, options: &LoadConfig) -> Result<Loaded, Error> {
     } else {
         Triangulation::default()
     };
+    let repair = if options.repair {
+        repair(&mut desc, options.weld)
+    } else if MESH_EXTENSIONS.contains(&ext.as_str()) {
+        survey(&desc, options.weld)
+    } else {
+        Repair::default()
+    };
     Ok(Loaded {
         desc,
         view3d,
         triangulation,
+        repair,
         notes,
     })
 }

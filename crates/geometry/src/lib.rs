@@ -11,6 +11,7 @@
 //!   `Polygon::intersect`, `Polygon::terms_at`, [`PolygonHit`]).
 //! - `overlap`: the coplanar overlaps a scene refuses.
 //! - `polygon`: [`Polygon`] and [`Patch`]: validation, patch textures, the (u, v) → patch map.
+//! - `repair`: `--repair`, meshes as they come: welding, duplicates, folds, orientation.
 //! - `scene`: [`Scene`] and its description ([`SceneDesc`], [`PolygonDesc`], [`Material`],
 //!   [`Camera`]); `Facets::of` and `Facets::exact`.
 //! - `scenes`: the bench scenes (`canyon`, `cornell`, `cube`, `loft`, `meshes`).
@@ -24,6 +25,7 @@ pub mod file;
 mod hit_test;
 mod overlap;
 mod polygon;
+mod repair;
 mod scene;
 pub mod scenes;
 mod triangulate;
@@ -38,6 +40,7 @@ pub use polygon::{
     Patch, Polygon, MAX_CELLS_PER_POLYGON, MAX_COORDINATE, MIN_POLYGON_SIZE,
     MIN_POLYGON_SIZE_RELATIVE, PLANARITY_TOLERANCE,
 };
+pub use repair::{repair, survey, Repair, REPAIR_EXAMPLES, WELD_RELATIVE};
 pub use scene::{
     Camera, Material, PatchGrid, PolygonDesc, Scene, SceneDesc, SeenTerms, MAX_PATCHES, SEVERAL,
 };

@@ -3,7 +3,7 @@
 //! would silently receive no light. Found by grouping polygons by plane and sweeping
 //! their boxes, then clipping each candidate pair in their common plane.
 
-use crate::clip::{clip_convex, polygon_area_centroid};
+use crate::clip::{clip_convex, plane_frame, polygon_area_centroid};
 use crate::polygon::Polygon;
 use glam::DVec3;
 
@@ -100,13 +100,7 @@ pub fn find_overlap(polygons: &[Polygon], extent: f64) -> Option<(usize, usize, 
 
 /// The area two coplanar convex polygons share, clipped in a frame of their plane.
 fn shared_area(a: &Polygon, b: &Polygon, normal: DVec3) -> f64 {
-    let helper = if normal.x.abs() < 0.9 {
-        DVec3::X
-    } else {
-        DVec3::Y
-    };
-    let ex = normal.cross(helper).normalize();
-    let ey = normal.cross(ex);
+    let (ex, ey) = plane_frame(normal);
     let o = a.vertices()[0].as_dvec3();
     let flat = |p: &Polygon| -> Vec<[f64; 2]> {
         p.vertices()

@@ -2,6 +2,7 @@
 //! are split into triangles by ear clipping; degenerate faces, and degenerate pieces of
 //! split ones, are dropped and counted.
 
+use crate::clip::plane_frame;
 use crate::error::PolygonProblem;
 use crate::polygon::vertices_problem;
 use crate::scene::{rounded, PatchGrid, PolygonDesc, SceneDesc};
@@ -140,13 +141,7 @@ pub fn ear_clip(vertices: &[Vec3]) -> Option<Vec<[usize; 3]>> {
         return None;
     }
     let normal = normal.normalize();
-    let helper = if normal.x.abs() < 0.9 {
-        DVec3::X
-    } else {
-        DVec3::Y
-    };
-    let ex = normal.cross(helper).normalize();
-    let ey = normal.cross(ex);
+    let (ex, ey) = plane_frame(normal);
     let origin = vertices[0].as_dvec3();
     let pts: Vec<DVec2> = vertices
         .iter()

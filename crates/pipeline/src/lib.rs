@@ -52,7 +52,7 @@ pub use request::{
 };
 pub use rows::{rows, rows_streamed, rows_streamed_of, Rows, STREAM_CHUNK};
 pub(crate) use rows::{with_caster as rows_with_caster, CasterJob};
-pub use scene_file::SceneFile;
+pub use scene_file::{LoadNote, SceneFile};
 pub use solve::{
     OutOfCoreStats, Progress, Storage, DEFAULT_MEMORY_LIMIT, MATRIX_FREE_BATCH,
     MATRIX_FREE_OVERSHOOT,

@@ -3,7 +3,7 @@
 
 use crate::Error;
 use rad_geometry::file::{load, LoadConfig, View3dControl};
-use rad_geometry::{Scene, Triangulation};
+use rad_geometry::{Repair, Scene, Triangulation};
 use std::path::{Path, PathBuf};
 
 /// A scene file, loaded and fingerprinted.
@@ -17,6 +17,10 @@ pub struct SceneFile {
     pub view3d: Option<View3dControl>,
     /// What `--triangulate` did (all zero without it): for a warning.
     pub triangulation: Triangulation,
+    /// What `--repair` changed (`repaired`), or for a mesh file without it what it
+    /// would change.
+    pub repair: Repair,
+    pub repaired: bool,
     /// What was read with a change worth a warning (a clamped glTF reflectance, an
     /// ignored texture), and what the material file assigned.
     pub notes: Vec<String>,
@@ -32,6 +36,8 @@ impl SceneFile {
             hash,
             view3d: None,
             triangulation: Triangulation::default(),
+            repair: Repair::default(),
+            repaired: false,
             notes: Vec::new(),
         }
     }
@@ -55,6 +61,16 @@ impl SceneFile {
                 source,
             });
         }
+        if let Some(weld) = config.weld.filter(|w| !(w.is_finite() && *w >= 0.0)) {
+            return Err(Error::Setting(format!(
+                "weld distance {weld}: give a finite distance >= 0 (--weld)"
+            )));
+        }
+        if config.weld.is_some() && !config.repair {
+            return Err(Error::Setting(
+                "a weld distance (--weld) is a setting of --repair, which is off".into(),
+            ));
+        }
         let loaded = load(path, config)?;
         let scene = Scene::new(loaded.desc).map_err(|e| rad_geometry::Error::InFile {
             path: path.to_path_buf(),
@@ -67,14 +83,124 @@ impl SceneFile {
             hash,
             view3d: loaded.view3d,
             triangulation: loaded.triangulation,
+            repair: loaded.repair,
+            repaired: config.repair,
             notes: loaded.notes,
         })
+    }
+
+    /// What loading did that a person should hear of, in order: what `--triangulate`
+    /// split and dropped, what `--repair` changed (or, without it, the defects it would
+    /// mend, as a warning naming the flag), and the readers' notes.
+    pub fn load_notes(&self) -> Vec<LoadNote> {
+        let note = |text: String| LoadNote {
+            warning: false,
+            text,
+        };
+        let warn = |text: String| LoadNote {
+            warning: true,
+            text,
+        };
+        let mut out = Vec::new();
+        let t = &self.triangulation;
+        if t.split > 0 {
+            out.push(note(format!(
+                "split {} concave or warped faces into {} triangles",
+                t.split, t.triangles
+            )));
+        }
+        if t.dropped > 0 {
+            out.push(warn(format!(
+                "dropped {} degenerate faces or pieces (first: {})",
+                t.dropped,
+                t.first_dropped.as_deref().unwrap_or("?")
+            )));
+        }
+        out.extend(
+            repair_notes(&self.repair, self.repaired)
+                .into_iter()
+                .map(|(warning, text)| LoadNote { warning, text }),
+        );
+        out.extend(self.notes.iter().cloned().map(note));
+        out
     }
 
     /// The fingerprint as solution files store it: `fnv1a64:` and 16 hex digits.
     pub fn hash_text(&self) -> String {
         format!("fnv1a64:{:016x}", self.hash)
     }
+}
+
+/// One thing loading did, for a note or a warning.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadNote {
+    pub warning: bool,
+    pub text: String,
+}
+
+/// The notes of a repair (`repaired`) or of a survey: (is a warning, text).
+fn repair_notes(r: &Repair, repaired: bool) -> Vec<(bool, String)> {
+    let first = if r.examples.is_empty() {
+        String::new()
+    } else {
+        format!("; first: {}", r.examples.join("; "))
+    };
+    let counts = [
+        (r.flipped, "turned over"),
+        (r.duplicates, "dropped as duplicates"),
+        (r.folded, "dropped as folded onto a coplanar neighbour"),
+        (r.collapsed, "dropped as collapsed by welding"),
+    ]
+    .iter()
+    .filter(|(n, _)| *n > 0)
+    .map(|(n, what)| format!("{} {what}", count(*n, "face")))
+    .collect::<Vec<_>>()
+    .join(", ");
+    let mut out = Vec::new();
+    if repaired {
+        let mut pieces = format!("{}, {} closed", count(r.pieces, "piece"), r.closed);
+        if r.enclosures > 0 {
+            pieces += &format!(" ({} enclosing the scene, so facing inward)", r.enclosures);
+        }
+        let welded = if r.welded > 0 {
+            format!(
+                "; {} welded (within {:.3e})",
+                count(r.welded, "vertex position"),
+                r.weld_tolerance
+            )
+        } else {
+            String::new()
+        };
+        let changed = if counts.is_empty() {
+            "no face changed".to_string()
+        } else {
+            counts
+        };
+        out.push((
+            false,
+            format!("repaired: {changed}{welded}; {pieces}{first}"),
+        ));
+    } else if r.flipped + r.dropped() > 0 {
+        out.push((
+            true,
+            format!("--repair would mend this mesh: {counts}{first}"),
+        ));
+    }
+    if r.unorientable > 0 {
+        out.push((
+            true,
+            format!(
+                "{} joined faces that no orientation makes consistent (a one-sided piece, such as a Möbius band): some faces show their backs",
+                count(r.unorientable, "shared edge")
+            ),
+        ));
+    }
+    out
+}
+
+/// `n` and `what`, plural unless `n` is 1.
+fn count(n: usize, what: &str) -> String {
+    format!("{n} {what}{}", if n == 1 { "" } else { "s" })
 }
 
 /// FNV-1a (64 bits) of what a solution depends on: every polygon's vertices (their

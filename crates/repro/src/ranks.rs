@@ -45,6 +45,8 @@ fn scene_file(name: &str, scene: Scene) -> SceneFile {
         hash: 1,
         view3d: None,
         triangulation: Default::default(),
+        repair: Default::default(),
+        repaired: false,
         notes: Vec::new(),
     }
 }

@@ -1515,6 +1515,7 @@ fn a_scene_that_emits_nothing_is_warned_of() {
 mod front_door;
 #[cfg(feature = "mpi")]
 mod mpi;
+mod repair;
 
 /// `--method auto` (solve's default) on a small scene is exact: the same rows, to the
 /// byte, as `--method exact`, and no note that it estimates; on loft_triangles (28,800

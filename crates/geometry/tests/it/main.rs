@@ -6,4 +6,5 @@ mod frames;
 mod fuzz;
 mod meshes;
 mod props;
+mod repair;
 mod scenes;

@@ -336,6 +336,8 @@ mod tests {
             hash,
             view3d: None,
             triangulation: Default::default(),
+            repair: Default::default(),
+            repaired: false,
             notes: Vec::new(),
         }
     }

@@ -21,6 +21,8 @@ fn loft() -> SceneFile {
         hash: 1,
         view3d: None,
         triangulation: Default::default(),
+        repair: Default::default(),
+        repaired: false,
         notes: Vec::new(),
     }
 }

@@ -169,6 +169,8 @@ fn cornell() -> SceneFile {
         hash: 7,
         view3d: None,
         triangulation: Default::default(),
+        repair: Default::default(),
+        repaired: false,
         notes: Vec::new(),
     }
 }
