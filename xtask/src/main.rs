@@ -3,7 +3,8 @@
 //! into results/; `cargo xtask bench [--quick] [--only SECTIONS]` runs the extended
 //! measurements (scaling, viewfactors, ranks, meshes, solves) into results/; both
 //! rewrite the README's figures table when they write results/. `cargo xtask scenes`
-//! rewrites bench-scenes/ from the builders.
+//! rewrites bench-scenes/ from the builders (`--sculptures`: the scan-like galleries,
+//! too large to commit, to target/scenes).
 //!
 //! - `figures`: the README's table of current figures, from results/.
 //! - `plot`: the scaling plot (results/scaling.png).
@@ -29,7 +30,7 @@ use rad_pipeline::output::write_atomic;
 use std::path::{Path, PathBuf};
 
 fn usage() -> &'static str {
-    "usage: cargo xtask reproduce [--quick] [--out DIR] [--threads N]\n       cargo xtask bench [--quick] [--only scaling,viewfactors,ranks,meshes,solves] [--out DIR] [--threads N]\n       cargo xtask scenes [--out DIR]"
+    "usage: cargo xtask reproduce [--quick] [--out DIR] [--threads N]\n       cargo xtask bench [--quick] [--only scaling,viewfactors,ranks,meshes,solves] [--out DIR] [--threads N]\n       cargo xtask scenes [--out DIR] [--sculptures]"
 }
 
 /// The command line, read by hand (a harness needs no more).
@@ -38,6 +39,7 @@ struct Args {
     out: Option<PathBuf>,
     threads: Option<usize>,
     only: Vec<String>,
+    sculptures: bool,
 }
 
 fn parse(rest: &[String]) -> Result<Option<Args>> {
@@ -46,11 +48,13 @@ fn parse(rest: &[String]) -> Result<Option<Args>> {
         out: None,
         threads: None,
         only: Vec::new(),
+        sculptures: false,
     };
     let mut rest = rest.iter();
     while let Some(flag) = rest.next() {
         match flag.as_str() {
             "--quick" => a.quick = true,
+            "--sculptures" => a.sculptures = true,
             "--out" => a.out = Some(rest.next().context("--out needs a directory")?.into()),
             "--only" => {
                 let list = rest.next().context("--only needs a list of sections")?;
@@ -116,6 +120,9 @@ fn main() -> Result<()> {
             };
             let out = a.out.unwrap_or(default);
             reproduce::bench(a.quick, &a.only, &out, &root, &args)
+        }
+        "scenes" if a.sculptures => {
+            scenes::write_sculptures(&a.out.unwrap_or(root.join("target").join("scenes")))
         }
         "scenes" => scenes::write_scenes(&a.out.unwrap_or(root.join("bench-scenes"))),
         other => bail!("unknown command {other:?}\n{}", usage()),

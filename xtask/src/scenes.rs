@@ -5,9 +5,9 @@ use anyhow::{Context, Result};
 use rad_geometry::file::{scene_desc_to_json, scene_desc_to_json_indexed};
 use rad_geometry::scenes::{
     blob_room, cornell_box, cube, loft, loft_fine_triangles, loft_patches, loft_triangles,
-    urban_canyon, CORNELL_PATCH_MM,
+    sculptures_100k, sculptures_1m, urban_canyon, CORNELL_PATCH_MM,
 };
-use rad_geometry::Scene;
+use rad_geometry::{Scene, SceneDesc};
 use rad_pipeline::output::write_atomic;
 use std::path::Path;
 
@@ -31,17 +31,45 @@ pub fn write_scenes(out: &Path) -> Result<()> {
         .map(|(n, d, a)| (n, d, a, false))
         .chain(meshes.into_iter().map(|(n, d, a)| (n, d, a, true)));
     for (name, desc, about, indexed) in all {
-        Scene::new(desc.clone())
-            .with_context(|| format!("the {name} builder makes an invalid scene"))?;
-        let text = if indexed {
-            scene_desc_to_json_indexed(&desc, Some(about))
-        } else {
-            scene_desc_to_json(&desc, Some(about))
-        };
-        let path = out.join(name);
-        write_atomic(&path, |w| w.write_all(text.as_bytes()))
-            .with_context(|| format!("writing {}", path.display()))?;
-        eprintln!("wrote {}", path.display());
+        write_scene(out, name, &desc, about, indexed)?;
     }
+    Ok(())
+}
+
+/// Writes the scan-like sculpture galleries (~10^5 and ~10^6 triangles; 8.6 and 85 MB,
+/// too large to commit) to `out`.
+pub fn write_sculptures(out: &Path) -> Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let about = "A gallery of scan-like sculptures (displaced icospheres with crowded and sparse triangles, deep crevices and thin horns) in a closed room with a ceiling lamp, every triangle one patch";
+    for (name, build, what) in [
+        (
+            "sculptures_100k.json",
+            sculptures_100k as fn() -> _,
+            "102,400 triangles (rad_geometry::scenes::sculptures_100k)",
+        ),
+        (
+            "sculptures_1m.json",
+            sculptures_1m,
+            "983,040 triangles (rad_geometry::scenes::sculptures_1m)",
+        ),
+    ] {
+        write_scene(out, name, &build(), &format!("{about}: {what}."), true)?;
+    }
+    Ok(())
+}
+
+/// Checks a built scene and writes it as `out/name`.
+fn write_scene(out: &Path, name: &str, desc: &SceneDesc, about: &str, indexed: bool) -> Result<()> {
+    Scene::new(desc.clone())
+        .with_context(|| format!("the {name} builder makes an invalid scene"))?;
+    let text = if indexed {
+        scene_desc_to_json_indexed(desc, Some(about))
+    } else {
+        scene_desc_to_json(desc, Some(about))
+    };
+    let path = out.join(name);
+    write_atomic(&path, |w| w.write_all(text.as_bytes()))
+        .with_context(|| format!("writing {}", path.display()))?;
+    eprintln!("wrote {}", path.display());
     Ok(())
 }

@@ -1,12 +1,15 @@
 //! Scan vs grid on the loft, cube and Cornell box (and with `MESHES=1` the mesh
-//! scenes): `cargo run --release -p rad-repro --example scan_check`: checks the
-//! item buffers are equal and times both (one thread).
+//! scenes, the ~10^5-triangle sculpture gallery among them; `ONLY=sculptures_1m` the
+//! ~10^6 one): `cargo run --release -p rad-repro --example scan_check`: checks the
+//! item buffers are equal and times both (one thread). With `PROFILE=caster`, the
+//! time of each patch too (median, 90th percentile, dearest), and the patch ids, for
+//! the yardstick's `--ids`.
 
 use rad_accel::{VoxelGrid, VoxelGridConfig};
 use rad_core::RayCast;
 use rad_geometry::scenes::{
     blob_room, cornell_box, cube, loft, loft_fine_triangles, loft_patches, loft_triangles,
-    CORNELL_PATCH_MM,
+    sculptures_100k, sculptures_1m, CORNELL_PATCH_MM,
 };
 use rad_geometry::Scene;
 use rad_hemisphere::{
@@ -21,26 +24,31 @@ fn main() {
     let hemi = Hemisphere::new(HemisphereConfig::exact(180, 720)).unwrap();
     // MESHES=1: the mesh scenes too (slower).
     let meshes = std::env::var("MESHES").is_ok_and(|v| v == "1");
-    let mut scenes = vec![
-        ("loft", loft()),
-        ("cube", cube(10)),
-        ("cornell", cornell_box(CORNELL_PATCH_MM)),
+    // Built when asked for (the galleries take seconds and gigabytes).
+    let mut scenes: Vec<(&str, fn() -> rad_geometry::SceneDesc)> = vec![
+        ("loft", loft),
+        ("cube", || cube(10)),
+        ("cornell", || cornell_box(CORNELL_PATCH_MM)),
     ];
     if meshes {
         scenes.extend([
-            ("loft_patches", loft_patches()),
-            ("loft_triangles", loft_triangles()),
-            ("loft_fine", loft_fine_triangles()),
-            ("blob_room", blob_room()),
+            ("loft_patches", loft_patches as fn() -> _),
+            ("loft_triangles", loft_triangles),
+            ("loft_fine", loft_fine_triangles),
+            ("blob_room", blob_room),
+            ("sculptures_100k", sculptures_100k),
         ]);
     }
-    // ONLY=<scene>: that scene alone.
+    // ONLY=<scene>: that scene alone (sculptures_1m only so).
     let only = std::env::var("ONLY").ok();
-    for (name, desc) in scenes {
+    if only.as_deref() == Some("sculptures_1m") {
+        scenes.push(("sculptures_1m", sculptures_1m));
+    }
+    for (name, build) in scenes {
         if only.as_ref().is_some_and(|o| o != name) {
             continue;
         }
-        check(name, desc, &hemi);
+        check(name, build(), &hemi);
     }
 }
 
@@ -56,13 +64,32 @@ fn profile<C: Caster>(
 ) {
     let mut s = caster.scratch();
     let mut buf = ItemBuffer::default();
-    let t = std::time::Instant::now();
-    for _ in 0..10 {
-        for &p in patches {
-            caster.item_buffer(scene, hemi, p, &mut s, &mut buf);
-        }
-    }
-    let ms = t.elapsed().as_secs_f64() * 1e3 / (10 * patches.len()) as f64;
+    // Each patch ten times in a row: its time a hemisphere.
+    let mut each: Vec<f64> = patches
+        .iter()
+        .map(|&p| {
+            let t = std::time::Instant::now();
+            for _ in 0..10 {
+                caster.item_buffer(scene, hemi, p, &mut s, &mut buf);
+            }
+            t.elapsed().as_secs_f64() * 1e3 / 10.0
+        })
+        .collect();
+    let ms = each.iter().sum::<f64>() / each.len() as f64;
+    each.sort_by(f64::total_cmp);
+    // Nearest rank.
+    let at = |q: f64| each[((q * (each.len() - 1) as f64).round() as usize).min(each.len() - 1)];
+    println!(
+        "{name}: per patch median {:.2} ms, 90th percentile {:.2} ms, dearest {:.2} ms; ids {}",
+        0.5 * (each[(each.len() - 1) / 2] + each[each.len() / 2]),
+        at(0.9),
+        at(1.0),
+        patches
+            .iter()
+            .map(u32::to_string)
+            .collect::<Vec<_>>()
+            .join(",")
+    );
     // With each hemisphere's row summed from its item buffer too (what the yardstick's
     // Embree `p16_full` times).
     let mut acc = rad_hemisphere::RowAccumulator::new(scene.patches().len());

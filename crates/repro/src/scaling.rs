@@ -6,7 +6,9 @@
 use crate::{one_thread, Error};
 use rad_accel::VoxelGrid;
 use rad_estimator::windows;
-use rad_geometry::scenes::{blob_room, loft, loft_fine_triangles, loft_patches, loft_triangles};
+use rad_geometry::scenes::{
+    blob_room, loft, loft_fine_triangles, loft_patches, loft_triangles, sculptures_100k,
+};
 use rad_geometry::{Scene, SceneDesc};
 use rad_hemisphere::{
     Caster, FacetScan, Hemisphere, HemisphereConfig, Hierarchy, ItemBuffer, Scan,
@@ -58,8 +60,8 @@ pub struct Scaling {
     pub scenes: Vec<SceneScaling>,
 }
 
-/// The loft and the mesh scenes (`quick`: the loft, `loft_patches` and `blob_room`, at
-/// 45 × 180, fewer patches).
+/// The loft and the mesh scenes, the ~10^5-triangle sculpture gallery among them
+/// (`quick`: the loft, `loft_patches` and `blob_room`, at 45 × 180, fewer patches).
 pub fn run(quick: bool, progress: &(dyn Fn(&str, usize, usize) + Sync)) -> Result<Scaling, Error> {
     let (nt, np, k) = if quick { (45, 180, 6) } else { (180, 720, 24) };
     let hemi = Hemisphere::new(HemisphereConfig::exact(nt, np))?;
@@ -71,6 +73,7 @@ pub fn run(quick: bool, progress: &(dyn Fn(&str, usize, usize) + Sync)) -> Resul
     if !quick {
         scenes.insert(2, ("loft_triangles", loft_triangles));
         scenes.push(("loft_fine", loft_fine_triangles));
+        scenes.push(("sculptures_100k", sculptures_100k));
     }
     let pool = one_thread()?;
     let mut out = Vec::new();

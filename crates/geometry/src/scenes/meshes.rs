@@ -3,7 +3,7 @@
 //! patches' shapes), and a curved, irregular triangle mesh in a closed room.
 
 use super::{box_faces, loft, material};
-use crate::scene::{Camera, PatchGrid, PolygonDesc, SceneDesc};
+use crate::scene::{Camera, Material, PatchGrid, PolygonDesc, SceneDesc};
 use crate::Scene;
 use glam::Vec3;
 use std::collections::HashMap;
@@ -108,21 +108,7 @@ pub const BLOB_ROOM: [f32; 3] = [4.0, 3.0, 4.0];
 /// function of direction), it cannot intersect itself, so it is valid by construction.
 pub fn blob_room() -> SceneDesc {
     let [x, y, z] = BLOB_ROOM;
-    let materials = vec![
-        material("white", [0.7, 0.7, 0.7], [0.0; 3]),
-        material("clay", [0.6, 0.45, 0.35], [0.0; 3]),
-        material("lamp", [0.8, 0.8, 0.8], [30.0, 30.0, 28.0]),
-    ];
-    let mut polygons = box_faces("room", Vec3::ZERO, Vec3::new(x, y, z), 0, 0.25, false);
-    let lamp_lo = Vec3::new(1.6, y - 0.12, 1.6);
-    polygons.extend(box_faces(
-        "lamp",
-        lamp_lo,
-        lamp_lo + Vec3::new(0.8, 0.06, 0.8),
-        2,
-        0.2,
-        true,
-    ));
+    let (materials, mut polygons) = lit_room(Vec3::new(x, y, z), ("clay", [0.6, 0.45, 0.35]));
     let centre = Vec3::new(0.5 * x, 1.15, 0.5 * z);
     let (vertices, faces) = icosphere(5);
     let radius = |d: Vec3| {
@@ -133,17 +119,7 @@ pub fn blob_room() -> SceneDesc {
             + 0.05 * (7.0 * theta + 2.0 * phi).cos())
     };
     let at: Vec<Vec3> = vertices.iter().map(|&d| centre + d * radius(d)).collect();
-    for (k, f) in faces.iter().enumerate() {
-        polygons.push(PolygonDesc {
-            name: format!("blob {k}"),
-            vertices: f.iter().map(|&i| super::as_written(at[i])).collect(),
-            material: 1,
-            grid: ONE,
-            group: None,
-            obstruction: false,
-            two_sided: false,
-        });
-    }
+    polygons.extend(one_patch_triangles("blob", &at, &faces, 1));
     SceneDesc {
         materials,
         polygons,
@@ -156,9 +132,50 @@ pub fn blob_room() -> SceneDesc {
     }
 }
 
+/// A closed room of `size` (white walls facing in, cut into 0.25 m cells) lit by a
+/// 0.8 × 0.06 × 0.8 m lamp box under the middle of its ceiling: the materials (white,
+/// the object's `(name, reflectance)`, the lamp) and the polygons.
+pub(super) fn lit_room(size: Vec3, object: (&str, [f64; 3])) -> (Vec<Material>, Vec<PolygonDesc>) {
+    let materials = vec![
+        material("white", [0.7, 0.7, 0.7], [0.0; 3]),
+        material(object.0, object.1, [0.0; 3]),
+        material("lamp", [0.8, 0.8, 0.8], [30.0, 30.0, 28.0]),
+    ];
+    let mut polygons = box_faces("room", Vec3::ZERO, size, 0, 0.25, false);
+    let lamp_lo = Vec3::new(0.5 * size.x - 0.4, size.y - 0.12, 0.5 * size.z - 0.4);
+    polygons.extend(box_faces(
+        "lamp",
+        lamp_lo,
+        lamp_lo + Vec3::new(0.8, 0.06, 0.8),
+        2,
+        0.2,
+        true,
+    ));
+    (materials, polygons)
+}
+
+/// Triangles `faces` of the vertices `at`, each one patch of `material`, named
+/// `"{name} {k}"`.
+pub(super) fn one_patch_triangles<'a>(
+    name: &'a str,
+    at: &'a [Vec3],
+    faces: &'a [[usize; 3]],
+    material: usize,
+) -> impl Iterator<Item = PolygonDesc> + 'a {
+    faces.iter().enumerate().map(move |(k, f)| PolygonDesc {
+        name: format!("{name} {k}"),
+        vertices: f.iter().map(|&i| super::as_written(at[i])).collect(),
+        material,
+        grid: ONE,
+        group: None,
+        obstruction: false,
+        two_sided: false,
+    })
+}
+
 /// The unit icosphere subdivided `levels` times: vertices, and triangles
 /// counter-clockwise seen from outside (20 · 4^levels of them).
-fn icosphere(levels: u32) -> (Vec<Vec3>, Vec<[usize; 3]>) {
+pub(super) fn icosphere(levels: u32) -> (Vec<Vec3>, Vec<[usize; 3]>) {
     let t = (1.0 + 5f32.sqrt()) / 2.0;
     let mut v: Vec<Vec3> = [
         (-1.0, t, 0.0),

@@ -2,6 +2,7 @@
 
 use rad_geometry::scenes::{
     blob_room, cornell_box, cube, loft, loft_fine_triangles, loft_patches, loft_triangles,
+    sculptures_100k,
 };
 use rad_geometry::Scene;
 
@@ -319,4 +320,40 @@ fn two_sided_polygons_get_a_back_with_the_fronts_cells() {
     assert!(scene.patches()[24..39]
         .iter()
         .all(|p| (p.normal + front.normal()).length() < 1e-6));
+}
+
+/// The scan-like gallery: 102,400 triangles beside the room's polygons, valid as built,
+/// the same at every build, each sculpture facing out from its centre (star-shaped),
+/// triangle areas spread over more than thirtyfold (1st to 99th percentile), and thin
+/// horns: some vertices reach more than 1.4 outer radii from their centre.
+#[test]
+fn the_sculptures_are_curved_uneven_and_valid() {
+    let desc = sculptures_100k();
+    assert_eq!(desc, sculptures_100k(), "deterministic");
+    let s = Scene::new(desc).unwrap();
+    let tris: Vec<_> = s
+        .polygons()
+        .iter()
+        .filter(|p| p.name().starts_with("sculpture "))
+        .collect();
+    assert_eq!(tris.len(), 81_920 + 20_480);
+    let mut areas: Vec<f64> = tris.iter().map(|p| p.area()).collect();
+    areas.sort_by(f64::total_cmp);
+    let (lo, hi) = (areas[areas.len() / 100], areas[areas.len() * 99 / 100]);
+    assert!(hi / lo > 30.0, "areas from {lo} to {hi}");
+    let mut reach = 0.0f32;
+    for p in &tris {
+        let k: f32 = p.name().split(' ').nth(1).unwrap().parse().unwrap();
+        let centre = glam::Vec3::new(0.3 + 1.8 * (k + 0.5), 1.05, 1.8);
+        assert!(
+            (p.vertices()[0] - centre).dot(p.normal()) > 0.0,
+            "{} faces in",
+            p.name()
+        );
+        reach = p
+            .vertices()
+            .iter()
+            .fold(reach, |r, v| r.max((*v - centre).length()));
+    }
+    assert!(reach > 1.4 * 0.5, "the horns reach {reach} m");
 }
