@@ -76,6 +76,36 @@ fn profile<C: Caster>(
         })
         .collect();
     let ms = each.iter().sum::<f64>() / each.len() as f64;
+    // The dearest and cheapest three, with the polygon each lies on and its distinct
+    // patches seen (what makes a hemisphere dear).
+    let mut order: Vec<usize> = (0..patches.len()).collect();
+    order.sort_by(|&a, &b| each[b].total_cmp(&each[a]));
+    let describe = |k: usize, buf: &mut ItemBuffer| {
+        let p = patches[k];
+        let mut fresh = caster.scratch();
+        caster.item_buffer(scene, hemi, p, &mut fresh, buf);
+        let mut ids = buf.patch.clone();
+        ids.sort_unstable();
+        ids.dedup();
+        let polygon = scene.polygons()[scene.patches()[p as usize].polygon as usize].name();
+        format!(
+            "{p} ({polygon}) {:.2} ms, {} seen, {}",
+            each[k],
+            ids.len(),
+            stats(&fresh)
+        )
+    };
+    let ends: Vec<usize> = order[..3]
+        .iter()
+        .chain(&order[order.len() - 3..])
+        .copied()
+        .collect();
+    for (k, what) in ends
+        .iter()
+        .zip(["dearest"; 3].iter().chain(&["cheapest"; 3]))
+    {
+        println!("  {what}: {}", describe(*k, &mut buf));
+    }
     each.sort_by(f64::total_cmp);
     // Nearest rank.
     let at = |q: f64| each[((q * (each.len() - 1) as f64).round() as usize).min(each.len() - 1)];
