@@ -109,7 +109,7 @@ class Scene:
 
     def view_factors(self, by=None, origins=None, enclosure=None, resolution=(180, 720),
                      caster=None, script_f=None, with_report=False, method=None,
-                     tolerance=None):
+                     tolerance=None, motion=None):
         """Surface-to-surface view factors F_IJ (area to area): (names, numpy (m, m)
         matrix), surfaces by "patch", "polygon" or "group" (default: group for a View3D
         file, else polygon); `origins` N: N x N hemispheres a patch (default 2);
@@ -121,15 +121,22 @@ class Scene:
         the closed-form factors' quadrature tolerance (default 1e-10).
         Up to 10,000 surfaces (a dense matrix); more through `coherad viewfactors
         --format bin`. With `with_report`, also (areas, a dict of the errors before and
-        after the rule)."""
-        names, dense, area, report = self._s.view_factors_raw(
+        after the rule). With `motion` (a motion file: named groups moved rigidly through
+        steps, as `coherad viewfactors --motion`), a list of those, one a step, each step
+        casting again only what the motion can change."""
+        made = self._s.view_factors_raw(
             by, origins, enclosure, _resolution(resolution), caster, script_f, method,
-            tolerance)
-        m = len(names)
-        matrix = _array(dense, np.float64, (m, m))
-        if with_report:
-            return names, matrix, _array(area, np.float64), report
-        return names, matrix
+            tolerance, None if motion is None else str(motion))
+
+        def unpack(names, dense, area, report):
+            m = len(names)
+            matrix = _array(dense, np.float64, (m, m))
+            if with_report:
+                return names, matrix, _array(area, np.float64), report
+            return names, matrix
+
+        steps = [unpack(*step) for step in made]
+        return steps if motion is not None else steps[0]
 
     def solve(self, resolution=(180, 720), method="auto", caster=None, solver="gauss-seidel",
               tolerance=None, reciprocal=True, with_report=False):

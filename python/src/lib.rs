@@ -9,11 +9,14 @@ use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use rad_pipeline::solve::solve_scene;
-use rad_pipeline::viewfactors::{view_factors, Grouping, ViewFactorMethod};
+use rad_pipeline::viewfactors::{
+    view_factors, view_factors_over_motion, Grouping, ViewFactorConfig, ViewFactorMethod,
+    ViewFactors,
+};
 use rad_pipeline::{
     pick_method, reflectance_of, settle_method, CasterKind, Enclosure, Hemisphere,
-    HemisphereConfig, LoadConfig, MethodChoice, PickedMethod, SceneFile, SolveRequest, Solver,
-    ViewFactorRequest,
+    HemisphereConfig, LoadConfig, MethodChoice, Motion, PickedMethod, SceneFile, SolveRequest,
+    Solver, ViewFactorRequest,
 };
 use std::path::PathBuf;
 
@@ -55,6 +58,8 @@ const MAX_DENSE_SURFACES: usize = 10_000;
 #[pyclass(module = "coherad._native", frozen)]
 struct Scene {
     file: SceneFile,
+    /// How it was read (a motion reads its description again).
+    config: LoadConfig,
 }
 
 /// Little-endian bytes of a slice of plain numbers.
@@ -182,7 +187,8 @@ impl Scene {
 
     /// Surface view factors: (names, the dense matrix as f64 bytes row by row, areas,
     /// a dict of the enclosure report).
-    #[pyo3(signature = (by = None, origins = None, enclosure = None, resolution = (180, 720), caster = None, script_f = None, method = None, tolerance = None))]
+    /// With `motion` (a motion file), a list of those, one a step.
+    #[pyo3(signature = (by = None, origins = None, enclosure = None, resolution = (180, 720), caster = None, script_f = None, method = None, tolerance = None, motion = None))]
     #[allow(clippy::too_many_arguments)]
     fn view_factors_raw(
         &self,
@@ -195,7 +201,8 @@ impl Scene {
         script_f: Option<bool>,
         method: Option<&str>,
         tolerance: Option<f64>,
-    ) -> PyResult<(Vec<String>, Py<PyBytes>, Py<PyBytes>, Py<PyDict>)> {
+        motion: Option<PathBuf>,
+    ) -> PyResult<Vec<RawViewFactors>> {
         let scene = &self.file.scene;
         let grouping = |by: &str| match by {
             "patch" => Ok(Grouping::Patch),
@@ -247,37 +254,27 @@ impl Scene {
             )));
         }
         let hemi = hemisphere(resolution)?;
-        let vf = py
-            .detach(|| view_factors(scene, &hemi, &opts, &|_| {}))
-            .map_err(fail)?;
-        let n = vf.names.len();
-        let mut dense = vec![0.0f64; n * n];
-        for (i, row) in vf.matrix.rows.iter().enumerate() {
-            for &(j, f) in row {
-                dense[i * n + j as usize] = f;
-            }
-        }
-        let report = PyDict::new(py);
-        let r = &vf.report;
-        report.set_item("enclosure", opts.enclosure.name())?;
-        report.set_item("origins", opts.origins)?;
-        report.set_item("by", by)?;
-        report.set_item("script_f", vf.script_f)?;
-        report.set_item("max_row_sum_error", r.fixed.row_sum.max)?;
-        report.set_item("max_reciprocity_error", r.fixed.reciprocity.max)?;
-        report.set_item("raw_max_row_sum_error", r.raw.row_sum.max)?;
-        report.set_item("raw_max_reciprocity_error", r.raw.reciprocity.max)?;
-        report.set_item("escaped", vf.escaped.clone())?;
-        report.set_item("method", opts.method.name())?;
-        report.set_item("exact_pairs", vf.exact_pairs)?;
-        report.set_item("hemisphere_pairs", vf.hemisphere_pairs)?;
-        report.set_item("back", vf.back.clone())?;
-        Ok((
-            vf.names.clone(),
-            bytes_of(py, &dense, f64::to_le_bytes),
-            bytes_of(py, &vf.matrix.area, f64::to_le_bytes),
-            report.unbind(),
-        ))
+        let Some(motion) = motion else {
+            let vf = py
+                .detach(|| view_factors(scene, &hemi, &opts, &|_| {}))
+                .map_err(fail)?;
+            return Ok(vec![packed(py, &vf, &opts)?]);
+        };
+        let made = py.detach(|| {
+            let (_, desc) = SceneFile::load_keeping(&self.file.path, &self.config, true)?;
+            let desc = desc.expect("kept when asked");
+            let motion = Motion::read(&motion).map_err(rad_pipeline::Error::from)?;
+            let mut steps = Vec::new();
+            view_factors_over_motion(&desc, scene, &motion, &hemi, &opts, &|_, _| {}, &mut |s| {
+                steps.push(s.vf);
+                Ok(())
+            })?;
+            Ok::<_, rad_pipeline::Error>(steps)
+        });
+        made.map_err(fail)?
+            .iter()
+            .map(|vf| packed(py, vf, &opts))
+            .collect()
     }
 
     /// Radiosity of every patch, as `coherad solve` computes it: (f64 × 3 bytes a patch,
@@ -334,6 +331,42 @@ impl Scene {
     }
 }
 
+/// One matrix for Python: (names, the dense matrix as f64 bytes row by row, areas, a
+/// dict of the enclosure report).
+type RawViewFactors = (Vec<String>, Py<PyBytes>, Py<PyBytes>, Py<PyDict>);
+
+fn packed(py: Python<'_>, vf: &ViewFactors, opts: &ViewFactorConfig) -> PyResult<RawViewFactors> {
+    let by = opts.by.name();
+    let n = vf.names.len();
+    let mut dense = vec![0.0f64; n * n];
+    for (i, row) in vf.matrix.rows.iter().enumerate() {
+        for &(j, f) in row {
+            dense[i * n + j as usize] = f;
+        }
+    }
+    let report = PyDict::new(py);
+    let r = &vf.report;
+    report.set_item("enclosure", opts.enclosure.name())?;
+    report.set_item("origins", opts.origins)?;
+    report.set_item("by", by)?;
+    report.set_item("script_f", vf.script_f)?;
+    report.set_item("max_row_sum_error", r.fixed.row_sum.max)?;
+    report.set_item("max_reciprocity_error", r.fixed.reciprocity.max)?;
+    report.set_item("raw_max_row_sum_error", r.raw.row_sum.max)?;
+    report.set_item("raw_max_reciprocity_error", r.raw.reciprocity.max)?;
+    report.set_item("escaped", vf.escaped.clone())?;
+    report.set_item("method", opts.method.name())?;
+    report.set_item("exact_pairs", vf.exact_pairs)?;
+    report.set_item("hemisphere_pairs", vf.hemisphere_pairs)?;
+    report.set_item("back", vf.back.clone())?;
+    Ok((
+        vf.names.clone(),
+        bytes_of(py, &dense, f64::to_le_bytes),
+        bytes_of(py, &vf.matrix.area, f64::to_le_bytes),
+        report.unbind(),
+    ))
+}
+
 /// Loads and validates a scene file (any format the `coherad` binary reads).
 #[pyfunction]
 #[pyo3(signature = (path, patch_size = None, triangulate = false, reflectance = None, materials = None, repair = false, weld = None))]
@@ -363,7 +396,7 @@ fn load(
     let file = py
         .detach(|| SceneFile::load_with(&path, &config))
         .map_err(fail)?;
-    Ok(Scene { file })
+    Ok(Scene { file, config })
 }
 
 #[pymodule]

@@ -92,6 +92,31 @@ def test_view_factors_of_the_cube_closed():
     assert report["max_row_sum_error"] < 1e-12
 
 
+def test_view_factors_over_a_motion_are_the_binarys(tmp_path):
+    sat = ROOT / "bench-scenes" / "satellite.json"
+    motion = tmp_path / "m.json"
+    turn = lambda d: {"rotate": {"axis": [1, 0, 0], "degrees": d}}
+    motion.write_text(json.dumps({"steps": [
+        {"name": str(k), "groups": {"array +x": turn(15 * k), "array -x": turn(15 * k)}}
+        for k in range(3)]}))
+    steps = coherad.load(sat).view_factors(by="group", resolution=(20, 80), motion=motion)
+    assert len(steps) == 3
+    out = tmp_path / "steps"
+    cli("viewfactors", sat, "--by", "group", "--resolution", "20x80", "--motion", motion,
+        "--out", out)
+    for k, (names, vf) in enumerate(steps):
+        assert vf.shape == (len(names), len(names))
+        surfaces = json.loads((out / f"step_{k:04}.json").read_text())["surfaces"]
+        assert [s["name"] for s in surfaces] == names
+        for s in surfaces:
+            for j, f in s["factors"]:
+                assert vf[s["id"], j] == f
+    assert not np.array_equal(steps[0][1], steps[2][1])
+    with pytest.raises(coherad.CoheradError, match="moves group"):
+        motion.write_text('{"steps": [{"groups": {"boom": {}}}]}')
+        coherad.load(sat).view_factors(motion=motion)
+
+
 def test_errors_are_exceptions_with_the_clis_messages(tmp_path):
     with pytest.raises(coherad.CoheradError, match="no/such/file.json"):
         coherad.load("/no/such/file.json")

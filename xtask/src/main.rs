@@ -1,7 +1,7 @@
 //! The harness. `cargo xtask reproduce [--quick]` reproduces the report (the cube's
 //! accuracy, estimation's error, Tables 1 and 2, figures 7 to 9, the report's solves)
 //! into results/; `cargo xtask bench [--quick] [--only SECTIONS]` runs the extended
-//! measurements (scaling, viewfactors, ranks, meshes, solves) into results/; both
+//! measurements (scaling, viewfactors, ranks, meshes, motion, solves) into results/; both
 //! rewrite the README's figures table when they write results/. `cargo xtask scenes`
 //! rewrites bench-scenes/ from the builders (`--sculptures`: the scan-like galleries,
 //! too large to commit, to target/scenes).
@@ -30,7 +30,7 @@ use rad_pipeline::output::write_atomic;
 use std::path::{Path, PathBuf};
 
 fn usage() -> &'static str {
-    "usage: cargo xtask reproduce [--quick] [--out DIR] [--threads N]\n       cargo xtask bench [--quick] [--only scaling,viewfactors,ranks,meshes,solves] [--out DIR] [--threads N]\n       cargo xtask scenes [--out DIR] [--sculptures]"
+    "usage: cargo xtask reproduce [--quick] [--out DIR] [--threads N]\n       cargo xtask bench [--quick] [--only scaling,viewfactors,ranks,meshes,motion,solves] [--out DIR] [--threads N]\n       cargo xtask scenes [--out DIR] [--sculptures]"
 }
 
 /// The command line, read by hand (a harness needs no more).
@@ -59,7 +59,14 @@ fn parse(rest: &[String]) -> Result<Option<Args>> {
             "--only" => {
                 let list = rest.next().context("--only needs a list of sections")?;
                 a.only = list.split(',').map(|s| s.trim().to_string()).collect();
-                let known = ["scaling", "viewfactors", "ranks", "meshes", "solves"];
+                let known = [
+                    "scaling",
+                    "viewfactors",
+                    "ranks",
+                    "meshes",
+                    "motion",
+                    "solves",
+                ];
                 if let Some(bad) = a.only.iter().find(|s| !known.contains(&s.as_str())) {
                     bail!(
                         "--only: no section {bad:?} (sections: {})",

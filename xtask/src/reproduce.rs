@@ -67,7 +67,7 @@ pub fn reproduce(quick: bool, out: &Path, root: &Path, args: &[String]) -> Resul
 }
 
 /// `cargo xtask bench`: the extended measurements (`sections`, default all: scaling,
-/// viewfactors, ranks, meshes, solves), written to results/ (or `--out`) beside the
+/// viewfactors, ranks, meshes, motion, solves), written to results/ (or `--out`) beside the
 /// reproduction's files, with BENCH.md.
 pub fn bench(
     quick: bool,
@@ -108,6 +108,7 @@ pub fn bench(
         ("viewfactors.json", b.viewfactors_json(&provenance)),
         ("ranks.json", b.ranks_json(&provenance)),
         ("meshes.json", b.meshes_json(&provenance)),
+        ("motion.json", b.motion_json(&provenance)),
     ];
     for (name, text) in files {
         if let Some(text) = text {

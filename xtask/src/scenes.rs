@@ -4,8 +4,9 @@
 use anyhow::{Context, Result};
 use rad_geometry::file::{scene_desc_to_json, scene_desc_to_json_indexed};
 use rad_geometry::scenes::{
-    blob_room, cornell_box, cube, loft, loft_fine_triangles, loft_patches, loft_triangles,
-    sculptures_100k, sculptures_1m, urban_canyon, CORNELL_PATCH_MM,
+    blob_room, cart_motion, cornell_box, cube, loft, loft_fine_triangles, loft_patches,
+    loft_triangles, room_with_cart, satellite, satellite_motion, sculptures_100k, sculptures_1m,
+    urban_canyon, CORNELL_PATCH_MM,
 };
 use rad_geometry::{Scene, SceneDesc};
 use rad_pipeline::output::write_atomic;
@@ -32,6 +33,23 @@ pub fn write_scenes(out: &Path) -> Result<()> {
         .chain(meshes.into_iter().map(|(n, d, a)| (n, d, a, true)));
     for (name, desc, about, indexed) in all {
         write_scene(out, name, &desc, about, indexed)?;
+    }
+    let moving = [
+        ("satellite.json", satellite(), "A satellite: a 1 m cube bus, two solar arrays of three 1 x 1 m two-sided panels along x (groups \"array +x\", \"array -x\"), a hexagonal antenna on a boom (rad_geometry::scenes::satellite); satellite_motion.json turns the arrays."),
+        ("room_cart.json", room_with_cart(0.5), "A 5 x 3 x 4 m room with a ceiling light, a table and a 0.5 m cube cart (group \"cart\") on the floor (rad_geometry::scenes::room_with_cart); cart_motion.json slides the cart."),
+    ];
+    for (name, desc, about) in moving {
+        write_scene(out, name, &desc, about, false)?;
+    }
+    for (name, motion, about) in [
+        ("satellite_motion.json", satellite_motion(36), "The satellite's two arrays turning about the x axis, 10 degrees a step, 36 steps (rad_geometry::scenes::satellite_motion)."),
+        ("cart_motion.json", cart_motion(10), "The cart sliding 2.5 m along the floor in 10 steps, turning a quarter turn (rad_geometry::scenes::cart_motion)."),
+    ] {
+        let path = out.join(name);
+        let text = motion.to_json(Some(about));
+        write_atomic(&path, |w| w.write_all(text.as_bytes()))
+            .with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
     }
     Ok(())
 }

@@ -31,6 +31,15 @@ impl Ctx<'_> {
     /// Loads a scene file as the global flags say; says what loading
     /// did ([`SceneFile::load_notes`]): notes, and warnings even when quiet.
     pub fn load(&self, path: &Path) -> Result<SceneFile, Error> {
+        self.load_keeping(path, false).map(|(s, _)| s)
+    }
+
+    /// [`Ctx::load`], and the scene's description where `keep` says so.
+    pub fn load_keeping(
+        &self,
+        path: &Path,
+        keep: bool,
+    ) -> Result<(SceneFile, Option<rad_pipeline::SceneDesc>), Error> {
         let cli = self.cli;
         let reflectance = cli
             .reflectance
@@ -45,7 +54,7 @@ impl Ctx<'_> {
             repair: cli.repair,
             weld: cli.weld,
         };
-        let scene = SceneFile::load_with(path, &config)?;
+        let (scene, desc) = SceneFile::load_keeping(path, &config, keep)?;
         for note in scene.load_notes() {
             if note.warning {
                 warning!(self.report, "warning: {}: {}", path.display(), note.text);
@@ -53,7 +62,7 @@ impl Ctx<'_> {
                 say!(self.report, "note: {}: {}", path.display(), note.text);
             }
         }
-        Ok(scene)
+        Ok((scene, desc))
     }
 
     /// The rows of `ids` (`make` makes any of them), made by this process alone or

@@ -149,9 +149,16 @@ pub struct ViewfactorsArgs {
     /// bit). Default: the fastest for the scene.
     #[arg(long)]
     pub caster: Option<CasterKind>,
-    /// Write here instead of standard output (atomically: all or nothing).
+    /// Write here instead of standard output (atomically: all or nothing). With
+    /// --motion, a folder (made if missing) that gets one file a step.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// A motion file (JSON; see docs/formats.md): named groups moved rigidly through
+    /// steps. Writes one matrix a step into --out, step_0000.json and on (the format's
+    /// extension), each when made; a step casts again only the cells that what moved
+    /// can change, and gives the factors a whole run of that step gives, to the bit.
+    #[arg(long)]
+    pub motion: Option<PathBuf>,
 }
 
 /// `coherad solve`'s flags.

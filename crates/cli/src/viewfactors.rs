@@ -11,13 +11,14 @@ use rad_pipeline::output::write_atomic;
 use rad_pipeline::share::Peers;
 use rad_pipeline::viewfactors::{
     area_rows, check_format, row_patches, stream_patch_matrix, view_factors, view_factors_of_rows,
-    write_view_factors, MatrixFormat, ViewFactorConfig, ViewFactorRun, ViewFactors,
+    view_factors_over_motion, write_view_factors, MatrixFormat, ViewFactorConfig, ViewFactorRun,
+    ViewFactors, MOTION_KEEP_BYTES,
 };
-use rad_pipeline::{EstimateStats, Hemisphere, RowMethod, SceneFile, ViewFactorRequest};
+use rad_pipeline::{EstimateStats, Hemisphere, Motion, RowMethod, SceneFile, ViewFactorRequest};
 use std::path::Path;
 
 pub fn run(ctx: &Ctx, args: &ViewfactorsArgs) -> Result<Outcome, Error> {
-    let scene = ctx.load(&args.scene)?;
+    let (scene, desc) = ctx.load_keeping(&args.scene, args.motion.is_some())?;
     let request = ViewFactorRequest {
         by: args.by.map(|b| b.grouping()),
         method: Some(args.method.method()),
@@ -50,6 +51,9 @@ pub fn run(ctx: &Ctx, args: &ViewfactorsArgs) -> Result<Outcome, Error> {
         scene_hash: scene.hash_text(),
         resolution: (hemi.n_theta() as u32, hemi.n_phi() as u32),
     };
+    if let (Some(motion), Some(desc)) = (&args.motion, desc) {
+        return moving(ctx, (&scene, &desc), motion, &hemi, &config, format, out);
+    }
     if ctx.ranks.size() > 1 {
         return shared(ctx, &scene, &hemi, &config, &bar, (&run, format, out));
     }
@@ -60,6 +64,99 @@ pub fn run(ctx: &Ctx, args: &ViewfactorsArgs) -> Result<Outcome, Error> {
     let vf = view_factors(&scene.scene, &hemi, &config, &progress)?;
     bar.finish_and_clear();
     report_and_write(ctx.report, &vf, &run, format, out)
+}
+
+/// Over a motion: one file a step into the folder `out`, each written (atomically) as
+/// it is made, so that a run stopped midway leaves only whole steps.
+fn moving(
+    ctx: &Ctx,
+    (scene, desc): (&SceneFile, &rad_pipeline::SceneDesc),
+    motion: &Path,
+    hemi: &Hemisphere,
+    config: &ViewFactorConfig,
+    format: MatrixFormat,
+    out: Option<&Path>,
+) -> Result<Outcome, Error> {
+    if ctx.ranks.size() > 1 {
+        return Err(Error::Flags(
+            "--motion runs in one process: run it without mpirun".into(),
+        ));
+    }
+    let Some(dir) = out else {
+        return Err(Error::Flags(
+            "--motion writes one file a step: give --out FOLDER".into(),
+        ));
+    };
+    if dir.is_file() {
+        return Err(Error::Flags(format!(
+            "--out {} is a file: with --motion, give a folder (one file a step)",
+            dir.display()
+        )));
+    }
+    let motion = Motion::read(motion).map_err(rad_pipeline::Error::from)?;
+    motion.check(desc).map_err(rad_pipeline::Error::from)?;
+    std::fs::create_dir_all(dir).map_err(|source| rad_pipeline::Error::Io {
+        action: "create",
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let n_steps = motion.steps.len();
+    let n_patches = scene.scene.patches().len();
+    let bar = ctx.report.bar(
+        n_steps * n_patches,
+        (n_steps * n_patches * hemi.n_cells()) as u64 / 10,
+        "patches",
+        format!("view factors over {n_steps} steps"),
+    );
+    let progress = |k: usize, n: usize| bar.set_position((k * n_patches + n) as u64);
+    let ext = match format {
+        MatrixFormat::View3d => "txt",
+        f => f.name(),
+    };
+    let report = ctx.report;
+    view_factors_over_motion(
+        desc,
+        &scene.scene,
+        &motion,
+        hemi,
+        config,
+        &progress,
+        &mut |s| {
+            let path = dir.join(format!("step_{:04}.{ext}", s.step));
+            let run = ViewFactorRun {
+                scene: format!("{} at step {} ({})", scene.path.display(), s.step, s.name),
+                scene_hash: s.scene_hash.clone(),
+                resolution: (hemi.n_theta() as u32, hemi.n_phi() as u32),
+            };
+            write_atomic(&path, |w| write_view_factors(w, &s.vf, &run, format))?;
+            let r = &s.recast;
+            let unkept = if r.not_kept > 0 {
+                format!(
+                    "; {} patches kept nothing for the next step (over {} MiB of buffers)",
+                    r.not_kept,
+                    MOTION_KEEP_BYTES >> 20
+                )
+            } else {
+                String::new()
+            };
+            bar.suspend(|| {
+            say!(
+                report,
+                "step {} ({}): {} polygons moved; {} patches cast whole, {} in part, {:.2} % of cells cast{unkept}; {}",
+                s.step,
+                s.name,
+                s.moved_polygons,
+                r.whole,
+                r.partly,
+                100.0 * r.cast_share(),
+                path.display()
+            )
+        });
+            Ok(())
+        },
+    )?;
+    bar.finish_and_clear();
+    Ok(Outcome::Done)
 }
 
 /// A bar over the patches, shown on long jobs.

@@ -123,6 +123,16 @@ pub enum Error {
     UnknownFormat { path: PathBuf, ext: String },
     #[error("{}: {source}", path.display())]
     InFile { path: PathBuf, source: Box<Error> },
+    #[error("{}: {message}", path.display())]
+    Motion { path: PathBuf, message: String },
+    #[error("{}: step {step} ({name:?}, moving {groups}): {source}", path.display())]
+    MotionStep {
+        path: PathBuf,
+        step: usize,
+        name: String,
+        groups: String,
+        source: Box<Error>,
+    },
 }
 
 /// What `--triangulate` would do about a face's problem, for the message.

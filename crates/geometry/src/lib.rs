@@ -9,6 +9,8 @@
 //!   [`file::LoadConfig`]; `gltf`, `json`, `material_map`, `mesh` for PLY and STL, `obj`, `vs3`).
 //! - `hit_test`: the shared ray–polygon test ([`PolygonTerms`], [`OriginTerms`], [`Shape`],
 //!   `Polygon::intersect`, `Polygon::terms_at`, [`PolygonHit`]).
+//! - `motion`: [`Motion`], named groups moved rigidly over steps (the motion file), and
+//!   each step's scene.
 //! - `overlap`: the coplanar overlaps a scene refuses.
 //! - `polygon`: [`Polygon`] and [`Patch`]: validation, patch textures, the (u, v) → patch map.
 //! - `repair`: `--repair`, meshes as they come: welding, duplicates, folds, orientation.
@@ -23,6 +25,7 @@ mod error;
 mod facets;
 pub mod file;
 mod hit_test;
+mod motion;
 mod overlap;
 mod polygon;
 mod repair;
@@ -34,6 +37,7 @@ pub use adjacency::EdgeNeighbours;
 pub use error::{Error, PolygonProblem};
 pub use facets::{Facets, LocateScratch, Located, FACET_TILT};
 pub use hit_test::{OriginTerms, PolygonHit, PolygonTerms, Shape, Triangle};
+pub use motion::{Motion, MotionStep, Rigid, MAX_STEPS, RIGID_TOLERANCE};
 pub use overlap::{NORMAL_TOLERANCE, OVERLAP_FRACTION, PLANE_TOLERANCE};
 pub use polygon::{reach_past_corners, vertices_problem};
 pub use polygon::{

@@ -157,14 +157,28 @@ impl SeenTerms {
 impl Scene {
     /// Validates a description and builds every polygon's patch texture.
     pub fn new(desc: SceneDesc) -> Result<Scene, Error> {
-        Scene::build(desc, &[])
+        Scene::build(desc, &[], None)
+    }
+
+    /// [`Scene::new`], its rows made from the description divided by `unit` rather than
+    /// by its own largest coordinate ([`Scene::for_rows`]): what a motion's steps share
+    /// ([`crate::Motion::unit`]), so that a polygon that did not move keeps its bits
+    /// from step to step. `unit` must be finite and > 0.
+    pub fn with_unit(desc: SceneDesc, unit: f64) -> Result<Scene, Error> {
+        if !(unit.is_finite() && unit > 0.0) {
+            return Err(Error::Divided {
+                unit,
+                message: "the unit must be finite and > 0".into(),
+            });
+        }
+        Scene::build(desc, &[], Some(unit))
     }
 
     /// [`Scene::new`], the back sides of two-sided polygons cut by `back_grids` in
     /// order where given (the divided scene's, cut as the scene's were, not anew).
-    fn build(desc: SceneDesc, back_grids: &[PatchGrid]) -> Result<Scene, Error> {
+    fn build(desc: SceneDesc, back_grids: &[PatchGrid], unit: Option<f64>) -> Result<Scene, Error> {
         // (Kept before validation: the polygons below are built from its vertices.)
-        let unit_desc = divided(&desc);
+        let unit_desc = divided(&desc, unit.unwrap_or_else(|| desc.largest_coordinate()));
         // (How polygons are cut is decided on the vertices divided by the largest
         // coordinate, the divided scene's: so a scene cuts alike at any scale.)
         let unit = structure_unit(&desc);
@@ -303,7 +317,7 @@ impl Scene {
                 }
             };
             let backs: Vec<PatchGrid> = backs.iter().map(cells).collect();
-            let scene = Scene::build((**desc).clone(), &backs).map_err(|e| e.to_string())?;
+            let scene = Scene::build((**desc).clone(), &backs, None).map_err(|e| e.to_string())?;
             let polygons_alike = |a: &Polygon, b: &Polygon| {
                 a.grid() == b.grid()
                     && a.first_patch() == b.first_patch()
@@ -505,6 +519,14 @@ fn rounded_in(vertices: &[DVec3], unit: f64) -> Vec<Vec3> {
 }
 
 /// The largest magnitude of a described coordinate (NaN where one is NaN).
+impl SceneDesc {
+    /// The largest magnitude of any vertex coordinate (NaN if one is): the unit rows
+    /// are made in ([`Scene::for_rows`]).
+    pub fn largest_coordinate(&self) -> f64 {
+        largest_coordinate(self)
+    }
+}
+
 fn largest_coordinate(desc: &SceneDesc) -> f64 {
     desc.polygons
         .iter()
@@ -527,8 +549,7 @@ fn is_power_of_two(x: f64) -> bool {
 /// Where `desc`'s largest coordinate is finite, positive and not a power of two: it,
 /// and `desc` with every vertex divided by it, without what rows do not use (names,
 /// groups, the camera: a large mesh's names are a good part of its description).
-fn divided(desc: &SceneDesc) -> Option<(f64, Box<SceneDesc>)> {
-    let unit = largest_coordinate(desc);
+fn divided(desc: &SceneDesc, unit: f64) -> Option<(f64, Box<SceneDesc>)> {
     if !(unit.is_finite() && unit > 0.0) || is_power_of_two(unit) {
         return None;
     }

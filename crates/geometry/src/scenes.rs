@@ -1,20 +1,26 @@
 //! Deterministic builders of the bench scenes: the report's empty cube, our loft-like
 //! interior (the report never published its loft), the Cornell box, and the mesh
 //! scenes (the loft tessellated at three levels, a curved mesh in a room, galleries of
-//! scan-like sculptures of ~10^5 and ~10^6 triangles), and an urban canyon of 20,536
-//! facets for view factors at scale.
+//! scan-like sculptures of ~10^5 and ~10^6 triangles), an urban canyon of 20,536
+//! facets for view factors at scale, and scenes that move (a satellite, a room with a
+//! cart) with their motions.
 
 mod canyon;
 mod cornell;
 mod cube;
 mod loft;
 mod meshes;
+mod moving;
 mod sculptures;
 
 pub use canyon::{urban_canyon, CANYON_FACETS};
 pub use cornell::{cornell_box, CORNELL_PATCH_MM};
 pub use cube::{cube, CUBE_FACES};
 pub use meshes::{blob_room, loft_fine_triangles, loft_patches, loft_triangles, BLOB_ROOM};
+pub use moving::{
+    cart_motion, room_with_cart, satellite, satellite_motion, slide, with_cart, SATELLITE_ARRAYS,
+    SATELLITE_STILL,
+};
 pub use sculptures::{sculptures, sculptures_100k, sculptures_1m, SCULPTURES_100K, SCULPTURES_1M};
 
 use crate::scene::{Material, PatchGrid, PolygonDesc};

@@ -14,6 +14,8 @@
 //!   [`FacetRays`], single rays at the cost of facets, and `rays::bins` its light buffer.
 //! - `hierarchy`: [`Hierarchy`], the scan over a bounding volume hierarchy, and
 //!   [`HierarchyRays`].
+//! - `incremental`: [`moved_area_rows`], the rows of a scene some of whose polygons moved,
+//!   from the last step's item buffers ([`KeptBuffers`]), only what may change cast again.
 //! - `item_buffer`: [`ItemBuffer`] (a patch id and a distance a cell) and [`Viewpoint`].
 //! - `lambert`: [`point_to_polygon_form_factor`], Lambert's closed form.
 //! - `row`: [`Row`]s from item buffers, [`compute_rows`] and [`compute_area_rows`].
@@ -23,6 +25,7 @@ mod caster;
 mod cells;
 mod facet_scan;
 mod hierarchy;
+mod incremental;
 mod item_buffer;
 mod lambert;
 mod row;
@@ -35,6 +38,9 @@ pub use facet_scan::{
     MIN_BIN_RAYS,
 };
 pub use hierarchy::{Hierarchy, HierarchyRays, HierarchyScratch, HierarchyStats, TILE};
+pub use incremental::{
+    moved_area_rows, moved_area_rows_from, moved_polygons, KeptBuffers, RecastStats, WHOLE_FROM,
+};
 pub use item_buffer::{ItemBuffer, Viewpoint};
 pub use lambert::point_to_polygon_form_factor;
 pub use rad_core::{BACK, ESCAPED};

@@ -43,7 +43,7 @@ pub use parse::{
 pub use rad_core::Rgb;
 pub use rad_estimator::{EstimateStats, Mode};
 pub use rad_geometry::file::{LoadConfig, SCENE_EXTENSIONS};
-pub use rad_geometry::{Camera, Triangulation};
+pub use rad_geometry::{Camera, Motion, SceneDesc, Triangulation};
 pub use rad_hemisphere::{Hemisphere, HemisphereConfig, Row};
 pub use rad_render::{RenderConfig, Shading, View};
 pub use rad_solver::{Enclosure, SolveConfig, Solver};

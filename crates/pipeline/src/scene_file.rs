@@ -3,7 +3,7 @@
 
 use crate::Error;
 use rad_geometry::file::{load, LoadConfig, View3dControl};
-use rad_geometry::{Repair, Scene, Triangulation};
+use rad_geometry::{Repair, Scene, SceneDesc, Triangulation};
 use std::path::{Path, PathBuf};
 
 /// A scene file, loaded and fingerprinted.
@@ -54,6 +54,16 @@ impl SceneFile {
     /// Loads `path` (any format of `rad_geometry::file::SCENE_EXTENSIONS`) as `config`
     /// says, and validates it.
     pub fn load_with(path: &Path, config: &LoadConfig) -> Result<SceneFile, Error> {
+        SceneFile::load_keeping(path, config, false).map(|(s, _)| s)
+    }
+
+    /// [`SceneFile::load_with`], and the description the scene was built from where
+    /// `keep` says so (what a motion moves).
+    pub fn load_keeping(
+        path: &Path,
+        config: &LoadConfig,
+        keep: bool,
+    ) -> Result<(SceneFile, Option<SceneDesc>), Error> {
         if let Err(source) = std::fs::metadata(path) {
             return Err(Error::Io {
                 action: "read",
@@ -72,12 +82,13 @@ impl SceneFile {
             ));
         }
         let loaded = load(path, config)?;
+        let kept = keep.then(|| loaded.desc.clone());
         let scene = Scene::new(loaded.desc).map_err(|e| rad_geometry::Error::InFile {
             path: path.to_path_buf(),
             source: Box::new(e),
         })?;
         let hash = fingerprint(&scene);
-        Ok(SceneFile {
+        let file = SceneFile {
             path: path.to_path_buf(),
             scene,
             hash,
@@ -86,7 +97,8 @@ impl SceneFile {
             repair: loaded.repair,
             repaired: config.repair,
             notes: loaded.notes,
-        })
+        };
+        Ok((file, kept))
     }
 
     /// What loading did that a person should hear of, in order: what `--triangulate`

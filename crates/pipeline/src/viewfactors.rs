@@ -3,8 +3,10 @@
 //! enclosure rule, and written as JSON, CSV or Matrix Market.
 
 mod exact;
+mod motion;
 
 pub use exact::PolygonPairs;
+pub use motion::{view_factors_over_motion, StepViewFactors, MOTION_KEEP_BYTES};
 
 use crate::rows::{check_rows, chunk_patches, for_each_chunk, stream_chunks};
 use crate::{rows_with_caster, CasterJob, CasterKind, Error};

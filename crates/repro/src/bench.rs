@@ -1,7 +1,8 @@
 //! `cargo xtask bench`: our extended measurements beyond the report, each a section
 //! that can run alone: exact hemispheres of every caster as scenes grow (scaling), view
 //! factors against closed forms and at scale, rows and solves shared among simulated
-//! processes (ranks), estimation across polygons on meshes; and BENCH.md.
+//! processes (ranks), estimation across polygons on meshes, moving geometry's steps
+//! against whole computations (motion); and BENCH.md.
 
 use crate::meshes::MeshEstimation;
 use crate::ranks::Ranks;
@@ -18,14 +19,16 @@ pub enum Section {
     ViewFactors,
     Ranks,
     Meshes,
+    Motion,
 }
 
 impl Section {
-    pub const ALL: [Section; 4] = [
+    pub const ALL: [Section; 5] = [
         Section::Scaling,
         Section::ViewFactors,
         Section::Ranks,
         Section::Meshes,
+        Section::Motion,
     ];
 
     /// Its name on the command line and its file's stem.
@@ -35,6 +38,7 @@ impl Section {
             Section::ViewFactors => "viewfactors",
             Section::Ranks => "ranks",
             Section::Meshes => "meshes",
+            Section::Motion => "motion",
         }
     }
 }
@@ -46,6 +50,7 @@ pub struct Bench {
     pub viewfactors: Option<ViewFactorResults>,
     pub ranks: Option<Ranks>,
     pub meshes: Option<MeshEstimation>,
+    pub motion: Option<crate::motion::MotionCost>,
 }
 
 /// Runs `sections`; `progress(stage, step, of)` as they go.
@@ -68,6 +73,9 @@ pub fn run(
             .transpose()?,
         meshes: runs(Section::Meshes)
             .then(|| crate::meshes::run(quick, progress))
+            .transpose()?,
+        motion: runs(Section::Motion)
+            .then(|| crate::motion::run(quick, progress))
             .transpose()?,
     })
 }
@@ -149,6 +157,25 @@ impl Bench {
         Some(serde_json::to_string_pretty(&r).expect("results serialise") + "\n")
     }
 
+    /// motion.json: steps of motions against whole computations.
+    pub fn motion_json(&self, provenance: &Provenance) -> Option<String> {
+        let section = self.motion.as_ref()?;
+        #[derive(Serialize)]
+        struct S<'a> {
+            provenance: &'a Provenance,
+            quick: bool,
+            note: &'static str,
+            motion: &'a crate::motion::MotionCost,
+        }
+        let r = S {
+            provenance,
+            quick: self.quick,
+            note: "rad_pipeline::viewfactors::view_factors_over_motion (by polygon, hemispheres, one thread): each step made from the step before's item buffers, then the same step made whole (view_factors of the step's scene, in the motion's unit), in the same process, one after the other; identical: the two equal to the bit. cast_share: cells cast again (a patch cast whole counts all its cells; a cell tested against its kept polygon and the moved ones counts as cast). median_ratio: incremental over whole, the median over the steps after the first (which casts everything and codes the buffers).",
+            motion: section,
+        };
+        Some(serde_json::to_string_pretty(&r).expect("results serialise") + "\n")
+    }
+
     /// BENCH.md: the tables of the sections run.
     pub fn report(&self, p: &Provenance, wall_seconds: f64) -> String {
         let mut s = String::new();
@@ -167,11 +194,42 @@ impl Bench {
         if let Some(m) = &self.meshes {
             report_meshes(w, m, p.nproc);
         }
+        if let Some(m) = &self.motion {
+            report_motion(w, m);
+        }
         s
     }
 }
 
 /// Estimation across polygons on the mesh scenes: errors, cost, Table 1.
+fn report_motion(w: &mut String, m: &crate::motion::MotionCost) {
+    let _ = writeln!(
+        w,
+        "\n## Moving geometry (motion.json)\n\nEach step's view factors (by polygon, from hemispheres, {}x{}, {} origin a patch side) made from the step before's item buffers, then the same step made whole, one thread, one after the other in this process. Ratio: the median over the steps after the first of incremental over whole.\n\n| scene | patches | moving share of the area | steps | cells cast again (median) | incremental / whole | identical to the bit |\n|---|---:|---:|---:|---:|---:|---|",
+        m.resolution[0], m.resolution[1], m.origins
+    );
+    for c in &m.cases {
+        let mut shares: Vec<f64> = c.steps[1..].iter().map(|s| s.cast_share).collect();
+        shares.sort_by(f64::total_cmp);
+        let share = shares.get(shares.len() / 2).copied().unwrap_or(f64::NAN);
+        let _ = writeln!(
+            w,
+            "| {} | {} | {:.2} % | {} | {:.1} % | {:.3} | {} |",
+            c.scene,
+            c.patches,
+            100.0 * c.moving_share,
+            c.steps.len(),
+            100.0 * share,
+            c.median_ratio,
+            if c.steps.iter().all(|s| s.identical) {
+                "yes"
+            } else {
+                "NO"
+            }
+        );
+    }
+}
+
 fn report_meshes(w: &mut String, m: &MeshEstimation, cores: usize) {
     let _ = writeln!(
         w,

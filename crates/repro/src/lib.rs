@@ -22,6 +22,7 @@ pub mod closed_form;
 pub mod estimation;
 pub mod loft;
 pub mod meshes;
+pub mod motion;
 pub mod ranks;
 pub mod reciprocity;
 pub mod reproduce;

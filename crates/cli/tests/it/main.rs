@@ -1513,6 +1513,7 @@ fn a_scene_that_emits_nothing_is_warned_of() {
 }
 
 mod front_door;
+mod motion;
 #[cfg(feature = "mpi")]
 mod mpi;
 mod repair;

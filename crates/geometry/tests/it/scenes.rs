@@ -107,11 +107,27 @@ fn committed_bench_scene_files_match_their_builders() {
             "cornell.json",
             cornell_box(rad_geometry::scenes::CORNELL_PATCH_MM),
         ),
+        ("satellite.json", rad_geometry::scenes::satellite()),
+        ("room_cart.json", rad_geometry::scenes::room_with_cart(0.5)),
     ];
     for (name, built) in cases {
         let file = rad_geometry::file::load_scene_desc(&dir.join(name), None).unwrap();
         assert_eq!(
             file, built,
+            "{name} is out of date: run `cargo xtask scenes`"
+        );
+    }
+    for (name, built) in [
+        (
+            "satellite_motion.json",
+            rad_geometry::scenes::satellite_motion(36),
+        ),
+        ("cart_motion.json", rad_geometry::scenes::cart_motion(10)),
+    ] {
+        let mut file = rad_geometry::Motion::read(&dir.join(name)).unwrap();
+        file.path = built.path.clone();
+        assert!(
+            file == built,
             "{name} is out of date: run `cargo xtask scenes`"
         );
     }

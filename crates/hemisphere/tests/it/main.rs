@@ -2,6 +2,7 @@
 
 mod analytic;
 mod facets;
+mod motion;
 mod origins;
 mod props;
 mod scale;

@@ -11,6 +11,7 @@ use rad_pipeline::{
 use rad_solver::FormFactors;
 
 mod export;
+mod motion;
 mod scale;
 mod share;
 

@@ -1,0 +1,188 @@
+//! `coherad viewfactors --motion`: one whole file a step, the first (the scene as
+//! written) the very factors of a run without motion; bad motions refused by step and
+//! group, nothing written; a run killed midway leaves only complete steps.
+
+use super::{bench_scene, coherad};
+use std::path::Path;
+use std::process::Command;
+
+/// A motion turning the satellite's arrays through `n` steps of 10°.
+fn turning(n: usize) -> String {
+    let steps: Vec<String> = (0..n)
+        .map(|k| {
+            let turn = format!(
+                r#"{{"rotate": {{"axis": [1, 0, 0], "degrees": {}}}}}"#,
+                10 * k
+            );
+            format!(r#"{{"name": "{k}", "groups": {{"array +x": {turn}, "array -x": {turn}}}}}"#)
+        })
+        .collect();
+    format!(r#"{{"steps": [{}]}}"#, steps.join(", "))
+}
+
+fn files(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .map(|d| {
+            d.map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
+#[test]
+fn a_motion_writes_one_file_a_step_and_refuses_bad_motions() {
+    let dir = tempfile::tempdir().unwrap();
+    let sat = bench_scene("satellite.json");
+    let sat = sat.to_str().unwrap();
+    let motion = dir.path().join("m.json");
+    std::fs::write(&motion, turning(3)).unwrap();
+    let out = dir.path().join("steps");
+    let run = coherad(&[
+        "viewfactors",
+        sat,
+        "--by",
+        "group",
+        "--resolution",
+        "20x80",
+        "--motion",
+        motion.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{err}");
+    assert_eq!(
+        files(&out),
+        ["step_0000.json", "step_0001.json", "step_0002.json"]
+    );
+    assert!(
+        err.contains("step 1 (1): 12 polygons moved") && err.contains("in part"),
+        "{err}"
+    );
+    let read = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let first = read(&out.join("step_0000.json"));
+    let later = read(&out.join("step_0002.json"));
+    assert!(
+        later["scene"].as_str().unwrap().ends_with("at step 2 (2)"),
+        "{}",
+        later["scene"]
+    );
+    assert_ne!(first["surfaces"], later["surfaces"], "the arrays turned");
+    // The first step leaves the scene as written: the factors of a run without motion.
+    let plain = dir.path().join("plain.json");
+    let run = coherad(&[
+        "viewfactors",
+        sat,
+        "--by",
+        "group",
+        "--resolution",
+        "20x80",
+        "--out",
+        plain.to_str().unwrap(),
+    ]);
+    assert!(run.status.success());
+    assert_eq!(first["surfaces"], read(&plain)["surfaces"]);
+    assert_eq!(first["scene_hash"], read(&plain)["scene_hash"]);
+
+    // Bad motions: named by step and group; no file written.
+    for (text, says) in [
+        (
+            r#"{"steps": [{}, {"name": "deploy", "groups": {"boom": {}}}]}"#,
+            "step 1 (\"deploy\") moves group \"boom\"",
+        ),
+        (
+            r#"{"steps": [{"groups": {"bus": {"matrix": [[1.01, 0, 0], [0, 1, 0], [0, 0, 1]]}}}]}"#,
+            "scales or shears",
+        ),
+        (
+            r#"{"steps": [{"groups": {"bus": {"matrix": [[-1, 0, 0], [0, 1, 0], [0, 0, 1]]}}}]}"#,
+            "reflection",
+        ),
+        (r#"{"steps": ["#, "m.json:1:"),
+        (
+            r#"{"steps": [{"name": "into the bus", "groups": {"array +x": {"translate": [-1.8, 0, 0]}}}]}"#,
+            "step 0 (\"into the bus\", moving array +x)",
+        ),
+    ] {
+        std::fs::write(&motion, text).unwrap();
+        let bad = dir.path().join("bad");
+        let run = coherad(&[
+            "viewfactors",
+            sat,
+            "--resolution",
+            "8x32",
+            "--motion",
+            motion.to_str().unwrap(),
+            "--out",
+            bad.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{text}: {err}");
+        assert!(err.contains(says), "{text}: {err}");
+        assert!(files(&bad).is_empty(), "{text}: {:?}", files(&bad));
+    }
+    std::fs::write(&motion, turning(2)).unwrap();
+    let run = coherad(&["viewfactors", sat, "--motion", motion.to_str().unwrap()]);
+    assert!(String::from_utf8_lossy(&run.stderr).contains("give --out FOLDER"));
+    let run = coherad(&[
+        "viewfactors",
+        sat,
+        "--motion",
+        motion.to_str().unwrap(),
+        "--out",
+        plain.to_str().unwrap(),
+    ]);
+    assert!(String::from_utf8_lossy(&run.stderr).contains("is a file"));
+}
+
+#[test]
+fn a_motion_killed_midway_leaves_only_complete_steps() {
+    let dir = tempfile::tempdir().unwrap();
+    let motion = dir.path().join("m.json");
+    std::fs::write(&motion, turning(36)).unwrap();
+    let out = dir.path().join("steps");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_coherad"))
+        .args([
+            "viewfactors",
+            bench_scene("satellite.json").to_str().unwrap(),
+            "--resolution",
+            "60x240",
+            "--motion",
+            motion.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Killed once a few steps are written, while others are being made.
+    let start = std::time::Instant::now();
+    while files(&out)
+        .iter()
+        .filter(|f| f.starts_with("step_"))
+        .count()
+        < 3
+        && start.elapsed().as_secs() < 120
+    {
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    let names = files(&out);
+    let steps: Vec<&String> = names.iter().filter(|f| f.starts_with("step_")).collect();
+    assert!(steps.len() >= 3 && steps.len() < 36, "{names:?}");
+    for (k, name) in steps.iter().enumerate() {
+        assert_eq!(
+            **name,
+            format!("step_{k:04}.json"),
+            "steps in order, none missing"
+        );
+        let text = std::fs::read_to_string(out.join(name)).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).expect("a whole file");
+        assert!(v["surfaces"].is_array());
+    }
+}
