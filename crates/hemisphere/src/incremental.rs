@@ -151,8 +151,9 @@ impl Kept {
 /// step's.
 #[derive(Clone, Debug)]
 pub struct KeptBuffers {
-    /// The hemisphere's cells and the origins a patch side they were made with.
-    shape: Option<(usize, usize, u32)>,
+    /// The hemisphere (cells, φ shift bits, delta rule) and the origins a patch side
+    /// they were made with.
+    shape: Option<(usize, usize, u64, bool, u32)>,
     by_patch: Vec<Option<Kept>>,
     /// The most bytes kept: past them, patches (in the order given) keep nothing and
     /// are cast whole at the next step.
@@ -218,8 +219,9 @@ impl RecastStats {
     }
 }
 
-/// Which polygons of `now` differ from `before` (their vertices' bits, their grids, or
-/// their count): all of them where the polygon or patch counts differ.
+/// Which polygons of `now` differ from `before` (their vertices' bits, their grids, their
+/// first patch, their sides, or their count): all of them where the polygon or patch
+/// counts differ.
 pub fn moved_polygons(before: &Scene, now: &Scene) -> Vec<bool> {
     let (a, b) = (before.polygons(), now.polygons());
     if a.len() != b.len() || before.patches().len() != now.patches().len() {
@@ -230,6 +232,8 @@ pub fn moved_polygons(before: &Scene, now: &Scene) -> Vec<bool> {
         .map(|(p, q)| {
             p.vertices().len() != q.vertices().len()
                 || p.grid() != q.grid()
+                || p.first_patch() != q.first_patch()
+                || p.front_only() != q.front_only()
                 || (p.vertices().iter().zip(q.vertices()))
                     .any(|(u, v)| u.to_array().map(f32::to_bits) != v.to_array().map(f32::to_bits))
         })
@@ -295,7 +299,15 @@ pub fn moved_area_rows_from<C: Caster, R: Caster>(
             n_patches,
         });
     }
-    let shape = (hemi.n_theta(), hemi.n_phi(), origins);
+    let c = hemi.config();
+    let exact = c.delta == crate::DeltaRule::Exact;
+    let shape = (
+        hemi.n_theta(),
+        hemi.n_phi(),
+        c.phi_shift.to_bits(),
+        exact,
+        origins,
+    );
     let usable = kept.shape == Some(shape) && kept.by_patch.len() == n_patches;
     let moved = match moved {
         Some(m) if usable && m.len() == scene.polygons().len() => Some(m),
@@ -732,8 +744,9 @@ fn settled(p: PatchId, old: &Row, changed: &[PatchId], sums: &[f64]) -> Row {
     }
 }
 
-/// The bounding sphere of each moved polygon of `scene`, padded by 1e-4 of the scene's
-/// scale (the hit test accepts within 1e-5 of it) and a part in 1e-6 of its radius.
+/// The bounding sphere of each moved polygon of `scene`, padded by how far past its
+/// corners its hit test accepts ([`rad_geometry::Polygon::hull_reach`], a sliver's far
+/// along it), by 1e-4 of the scene's scale, and by a part in 1e-6 of its radius.
 fn moved_bounds(scene: &Scene, moved: &[bool]) -> Vec<Bound> {
     let pad = 1e-4 * f64::from(scene.scale());
     scene
@@ -752,7 +765,7 @@ fn moved_bounds(scene: &Scene, moved: &[bool]) -> Vec<Bound> {
             Bound {
                 polygon: id as PolygonId,
                 centre,
-                radius: radius * (1.0 + 1e-6) + pad,
+                radius: radius * (1.0 + 1e-6) + poly.hull_reach() + pad,
             }
         })
         .collect()

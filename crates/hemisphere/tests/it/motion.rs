@@ -87,6 +87,21 @@ proptest! {
                 _ => Some("b".into()),
             };
         }
+        // A sliver (a 0.5 degree tip), which moves: its hit test reaches far past its tip.
+        let tip = 0.5f64.to_radians();
+        desc.polygons.push(rad_geometry::PolygonDesc {
+            name: "sliver".into(),
+            vertices: vec![
+                DVec3::new(0.0, 0.0, 0.3),
+                DVec3::new(1.5, 1.5 * tip.tan(), 0.3),
+                DVec3::new(1.5, 0.0, 0.3),
+            ],
+            material: 0,
+            grid: rad_geometry::PatchGrid::Cells { nu: 1, nv: 1 },
+            group: Some("a".into()),
+            obstruction: false,
+            two_sided: false,
+        });
         let motion = Motion {
             path: "random".into(),
             steps: steps
