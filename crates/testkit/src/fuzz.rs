@@ -547,34 +547,58 @@ pub fn targets() -> Vec<Target> {
                 }
             },
         },
-        Target {
-            name: "motion",
-            ext: "json",
-            seeds: vec![
-                scenes::satellite_motion(3).to_json(Some("seed")).into_bytes(),
-                MOTION_SEED.as_bytes().to_vec(),
-            ],
-            tokens: tokens(&["{", "}", "[", "]", "\"", ":", "\"rotate\"", "\"matrix\"", "\"about\"", "\"translate\"", "\"degrees\": 1e308", "\"axis\": [0, 0, 0]", "\"bus\"", "\"array +x\"", "\"steps\": []"]),
-            run: |b| {
-                // Parsed, checked against the satellite, and each step's scene made (a
-                // step may be refused, never panic).
-                if let Ok(text) = std::str::from_utf8(b) {
-                    if let Ok(motion) = rad_geometry::Motion::parse(text, Path::new(FUZZ_PATH)) {
-                        PARSED.with(|p| p.set(true));
-                        let desc = scenes::satellite();
-                        if motion.check(&desc).is_ok() {
-                            if let Ok(cut) = Scene::new(desc.clone()) {
-                                let unit = motion.unit(&desc);
-                                for k in 0..motion.steps.len().min(4) {
-                                    let _ = motion.step_scene(&desc, &cut, k, unit);
-                                }
+        motion_target(),
+    ]
+}
+
+/// Motion files, parsed, checked against the satellite and each of their first steps'
+/// scenes made (a step may be refused, never panic).
+fn motion_target() -> Target {
+    Target {
+        name: "motion",
+        ext: "json",
+        seeds: vec![
+            scenes::satellite_motion(3)
+                .to_json(Some("seed"))
+                .into_bytes(),
+            MOTION_SEED.as_bytes().to_vec(),
+        ],
+        tokens: tokens(&[
+            "{",
+            "}",
+            "[",
+            "]",
+            "\"",
+            ":",
+            "\"rotate\"",
+            "\"matrix\"",
+            "\"about\"",
+            "\"translate\"",
+            "\"degrees\": 1e308",
+            "\"axis\": [0, 0, 0]",
+            "\"bus\"",
+            "\"array +x\"",
+            "\"steps\": []",
+        ]),
+        run: |b| {
+            // Parsed, checked against the satellite, and each step's scene made (a
+            // step may be refused, never panic).
+            if let Ok(text) = std::str::from_utf8(b) {
+                if let Ok(motion) = rad_geometry::Motion::parse(text, Path::new(FUZZ_PATH)) {
+                    PARSED.with(|p| p.set(true));
+                    let desc = scenes::satellite();
+                    if motion.check(&desc).is_ok() {
+                        if let Ok(cut) = Scene::new(desc.clone()) {
+                            let unit = motion.unit(&desc);
+                            for k in 0..motion.steps.len().min(4) {
+                                let _ = motion.step_scene(&desc, &cut, k, unit);
                             }
                         }
                     }
                 }
-            },
+            }
         },
-    ]
+    }
 }
 
 const MOTION_SEED: &str = r#"{"steps": [{"name": "a", "groups": {"array +x": {"rotate": {"axis": [1, 0, 0], "degrees": 30}, "about": [0, 0, 0]}}},
