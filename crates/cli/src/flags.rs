@@ -206,9 +206,17 @@ pub struct SolveArgs {
     /// behind, however the run ends). Default: TMPDIR, else /tmp
     #[arg(long)]
     pub temp_dir: Option<PathBuf>,
-    /// The solution file (atomically: all or nothing).
+    /// The solution file (atomically: all or nothing). With --motion, a folder (made
+    /// if missing) that gets one solution file a step.
     #[arg(long)]
     pub out: PathBuf,
+    /// A motion file (JSON; see docs/formats.md): named groups moved rigidly through
+    /// steps. Writes one solution a step into --out, step_0000.json and on, each when
+    /// made; a step's rows are exact and cast again only the cells that what moved can
+    /// change (the rows a whole run of that step makes, to the bit), stored, and
+    /// Gauss-Seidel starts from the step before's radiosities.
+    #[arg(long)]
+    pub motion: Option<PathBuf>,
 }
 
 /// `coherad export`'s flags.

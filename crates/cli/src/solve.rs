@@ -5,27 +5,25 @@ use crate::context::{emit, hemisphere, Ctx};
 use crate::exit::{Error, Outcome, EXIT_NOT_CONVERGED};
 use crate::flags::{Method, SolveArgs};
 use crate::report::{say, warning, Report};
+use crate::viewfactors::{motion_folder, recast_note, steps_bar};
 use indicatif::ProgressBar;
+use rad_pipeline::output::write_atomic;
 use rad_pipeline::share::Peers;
-use rad_pipeline::solve::{solve_scene_shared, SceneSolveConfig, Solved};
+use rad_pipeline::solve::{solve_over_motion, solve_scene_shared, SceneSolveConfig, Solved};
 use rad_pipeline::{
-    parse_size, pick_method, settle_method, Progress, SceneFile, SolveRequest, Storage,
+    parse_size, pick_method, settle_method, CasterKind, Progress, SceneFile, SolveRequest, Storage,
 };
+use std::path::Path;
+use std::time::Instant;
 
 pub fn run(ctx: &Ctx, args: &SolveArgs) -> Result<Outcome, Error> {
+    if let Some(motion) = &args.motion {
+        return moving(ctx, args, motion);
+    }
     let scene = ctx.load(&args.scene)?;
     let picked = pick_method(&scene, args.rows.choice(Method::Auto), args.rows.caster)?;
     ctx.report.picked(&picked, scene.scene.patches().len());
-    let request = SolveRequest {
-        solver: args.solver.solver(),
-        tolerance: args.tolerance,
-        max_iterations: args.max_iterations,
-        reciprocal: !args.raw,
-        storage: args.storage.storage(),
-        memory_limit: Some(parse_size(&args.memory_limit)?),
-        temp_dir: args.temp_dir.clone(),
-    };
-    let config = request.config()?;
+    let config = request(args)?.config()?;
     let hemi = hemisphere(&args.resolution)?;
     warn_if_nothing_emits(ctx.report, &scene);
     let (method, changed) = settle_method(&scene, &hemi, &picked, &config, ctx.ranks.size())?;
@@ -83,6 +81,101 @@ pub fn run(ctx: &Ctx, args: &SolveArgs) -> Result<Outcome, Error> {
         args.out.display()
     );
     Ok(Outcome::NotConverged)
+}
+
+/// The solve the flags ask for.
+fn request(args: &SolveArgs) -> Result<SolveRequest, Error> {
+    Ok(SolveRequest {
+        solver: args.solver.solver(),
+        tolerance: args.tolerance,
+        max_iterations: args.max_iterations,
+        reciprocal: !args.raw,
+        storage: args.storage.storage(),
+        memory_limit: Some(parse_size(&args.memory_limit)?),
+        temp_dir: args.temp_dir.clone(),
+    })
+}
+
+/// Over a motion: one solution file a step into the folder `--out`, each written
+/// (atomically) as it is made, so that a run stopped midway leaves only whole steps.
+fn moving(ctx: &Ctx, args: &SolveArgs, motion: &Path) -> Result<Outcome, Error> {
+    if args.rows.method == Some(Method::Estimated) {
+        return Err(Error::Flags(
+            "--motion makes exact rows (each step's from the step before's hemispheres): drop --method estimated".into(),
+        ));
+    }
+    let (scene, desc) = ctx.load_keeping(&args.scene, true)?;
+    let desc = desc.expect("kept as asked");
+    let config = request(args)?.config()?;
+    let hemi = hemisphere(&args.resolution)?;
+    let (dir, motion) = motion_folder(ctx, Some(&args.out), motion, &desc)?;
+    warn_if_nothing_emits(ctx.report, &scene);
+    let caster = args
+        .rows
+        .caster
+        .unwrap_or_else(|| CasterKind::fastest_for(&scene.scene));
+    let n = scene.scene.patches().len();
+    let bar = steps_bar(ctx.report, &motion, n, &hemi, "exact rows and solves");
+    let progress = |k: usize, p: Progress| {
+        if let Progress::Rows(done) = p {
+            bar.set_position((k * n + done) as u64);
+        }
+    };
+    let report = ctx.report;
+    let mut outcome = Outcome::Done;
+    // (Each step's time runs from the end of the one before: file writing excluded.)
+    let mut since = Instant::now();
+    solve_over_motion(
+        (&scene, &desc),
+        &motion,
+        &hemi,
+        caster,
+        &config,
+        &progress,
+        &mut |s| {
+            let took = since.elapsed();
+            let path = dir.join(format!("step_{:04}.json", s.step));
+            let text =
+                serde_json::to_string_pretty(&s.file).map_err(|e| rad_pipeline::Error::Encode {
+                    what: "a solution file",
+                    reason: e.to_string(),
+                })?;
+            write_atomic(&path, |w| w.write_all(text.as_bytes()))?;
+            let r = &s.solved.solution.report;
+            let cost = recast_note(s.moved_polygons, &s.recast);
+            bar.suspend(|| {
+                say!(
+                    report,
+                    "step {} ({}): {cost}; {} sweeps{}, residual {:.1e}, energy imbalance {:.1e}; in {:.1} ms; {}",
+                    s.step,
+                    s.name,
+                    r.iterations,
+                    if s.warm { " from the step before" } else { "" },
+                    r.residual,
+                    s.solved.balance.relative_imbalance,
+                    took.as_secs_f64() * 1e3,
+                    path.display()
+                );
+                if !r.converged {
+                    warning!(
+                        report,
+                        "warning: step {} did not converge (residual {:.1e} after {} iterations); {} is written, the exit code will be {EXIT_NOT_CONVERGED}",
+                        s.step,
+                        r.residual,
+                        r.iterations,
+                        path.display()
+                    );
+                }
+            });
+            if !r.converged {
+                outcome = Outcome::NotConverged;
+            }
+            since = Instant::now();
+            Ok(())
+        },
+    )?;
+    bar.finish_and_clear();
+    Ok(outcome)
 }
 
 /// A solve's progress on its bar: rows made, then sweeps or shots.

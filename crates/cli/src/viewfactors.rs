@@ -14,7 +14,9 @@ use rad_pipeline::viewfactors::{
     view_factors_over_motion, write_view_factors, MatrixFormat, ViewFactorConfig, ViewFactorRun,
     ViewFactors, MOTION_KEEP_BYTES,
 };
-use rad_pipeline::{EstimateStats, Hemisphere, Motion, RowMethod, SceneFile, ViewFactorRequest};
+use rad_pipeline::{
+    EstimateStats, Hemisphere, Motion, RecastStats, RowMethod, SceneFile, ViewFactorRequest,
+};
 use std::path::Path;
 
 pub fn run(ctx: &Ctx, args: &ViewfactorsArgs) -> Result<Outcome, Error> {
@@ -77,6 +79,81 @@ fn moving(
     format: MatrixFormat,
     out: Option<&Path>,
 ) -> Result<Outcome, Error> {
+    let (dir, motion) = motion_folder(ctx, out, motion, desc)?;
+    let n_patches = scene.scene.patches().len();
+    let bar = steps_bar(ctx.report, &motion, n_patches, hemi, "view factors");
+    let progress = |k: usize, n: usize| bar.set_position((k * n_patches + n) as u64);
+    let ext = match format {
+        MatrixFormat::View3d => "txt",
+        f => f.name(),
+    };
+    let report = ctx.report;
+    // Each step's time runs from the end of the one before (loading the scene and
+    // writing files excluded), so that users can weigh a step against a whole run.
+    let mut since = std::time::Instant::now();
+    view_factors_over_motion(
+        desc,
+        &scene.scene,
+        &motion,
+        hemi,
+        config,
+        &progress,
+        &mut |s| {
+            let took = since.elapsed();
+            let path = dir.join(format!("step_{:04}.{ext}", s.step));
+            let run = ViewFactorRun {
+                scene: format!("{} at step {} ({})", scene.path.display(), s.step, s.name),
+                scene_hash: s.scene_hash.clone(),
+                resolution: (hemi.n_theta() as u32, hemi.n_phi() as u32),
+            };
+            write_atomic(&path, |w| write_view_factors(w, &s.vf, &run, format))?;
+            let cost = recast_note(s.moved_polygons, &s.recast);
+            bar.suspend(|| {
+                say!(
+                    report,
+                    "step {} ({}): {cost} in {:.1} ms; {}",
+                    s.step,
+                    s.name,
+                    took.as_secs_f64() * 1e3,
+                    path.display()
+                )
+            });
+            since = std::time::Instant::now();
+            Ok(())
+        },
+    )?;
+    bar.finish_and_clear();
+    Ok(Outcome::Done)
+}
+
+/// What a step of a motion cast again, for its line on standard error.
+pub(crate) fn recast_note(moved_polygons: usize, r: &RecastStats) -> String {
+    let unkept = if r.not_kept > 0 {
+        format!(
+            "; {} patches kept nothing for the next step (over {} MiB of buffers)",
+            r.not_kept,
+            MOTION_KEEP_BYTES >> 20
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "{moved_polygons} polygons moved; {} patches cast whole, {} in part, {:.2} % of cells cast{unkept}",
+        r.whole,
+        r.partly,
+        100.0 * r.cast_share()
+    )
+}
+
+/// The folder `--out` names for a run over a motion, made if missing, and the motion
+/// read from `path` and checked against `desc`: refused under MPI, without `--out`, or
+/// with `--out` a file (before any folder is made).
+pub(crate) fn motion_folder<'p>(
+    ctx: &Ctx,
+    out: Option<&'p Path>,
+    path: &Path,
+    desc: &rad_pipeline::SceneDesc,
+) -> Result<(&'p Path, Motion), Error> {
     if ctx.ranks.size() > 1 {
         return Err(Error::Flags(
             "--motion runs in one process: run it without mpirun".into(),
@@ -93,70 +170,31 @@ fn moving(
             dir.display()
         )));
     }
-    let motion = Motion::read(motion).map_err(rad_pipeline::Error::from)?;
+    let motion = Motion::read(path).map_err(rad_pipeline::Error::from)?;
     motion.check(desc).map_err(rad_pipeline::Error::from)?;
     std::fs::create_dir_all(dir).map_err(|source| rad_pipeline::Error::Io {
         action: "create",
         path: dir.to_path_buf(),
         source,
     })?;
+    Ok((dir, motion))
+}
+
+/// A bar over the patches of every step of `motion` (`what` over N steps).
+pub(crate) fn steps_bar(
+    report: &Report,
+    motion: &Motion,
+    n_patches: usize,
+    hemi: &Hemisphere,
+    what: &str,
+) -> ProgressBar {
     let n_steps = motion.steps.len();
-    let n_patches = scene.scene.patches().len();
-    let bar = ctx.report.bar(
+    report.bar(
         n_steps * n_patches,
         (n_steps * n_patches * hemi.n_cells()) as u64 / 10,
         "patches",
-        format!("view factors over {n_steps} steps"),
-    );
-    let progress = |k: usize, n: usize| bar.set_position((k * n_patches + n) as u64);
-    let ext = match format {
-        MatrixFormat::View3d => "txt",
-        f => f.name(),
-    };
-    let report = ctx.report;
-    view_factors_over_motion(
-        desc,
-        &scene.scene,
-        &motion,
-        hemi,
-        config,
-        &progress,
-        &mut |s| {
-            let path = dir.join(format!("step_{:04}.{ext}", s.step));
-            let run = ViewFactorRun {
-                scene: format!("{} at step {} ({})", scene.path.display(), s.step, s.name),
-                scene_hash: s.scene_hash.clone(),
-                resolution: (hemi.n_theta() as u32, hemi.n_phi() as u32),
-            };
-            write_atomic(&path, |w| write_view_factors(w, &s.vf, &run, format))?;
-            let r = &s.recast;
-            let unkept = if r.not_kept > 0 {
-                format!(
-                    "; {} patches kept nothing for the next step (over {} MiB of buffers)",
-                    r.not_kept,
-                    MOTION_KEEP_BYTES >> 20
-                )
-            } else {
-                String::new()
-            };
-            bar.suspend(|| {
-            say!(
-                report,
-                "step {} ({}): {} polygons moved; {} patches cast whole, {} in part, {:.2} % of cells cast{unkept}; {}",
-                s.step,
-                s.name,
-                s.moved_polygons,
-                r.whole,
-                r.partly,
-                100.0 * r.cast_share(),
-                path.display()
-            )
-        });
-            Ok(())
-        },
-    )?;
-    bar.finish_and_clear();
-    Ok(Outcome::Done)
+        format!("{what} over {n_steps} steps"),
+    )
 }
 
 /// A bar over the patches, shown on long jobs.

@@ -23,6 +23,7 @@ pub mod export;
 pub mod images;
 pub mod matrix_file;
 mod method;
+mod moving;
 pub mod output;
 mod parse;
 mod request;
@@ -44,7 +45,7 @@ pub use rad_core::Rgb;
 pub use rad_estimator::{EstimateStats, Mode};
 pub use rad_geometry::file::{LoadConfig, SCENE_EXTENSIONS};
 pub use rad_geometry::{Camera, Motion, SceneDesc, Triangulation};
-pub use rad_hemisphere::{Hemisphere, HemisphereConfig, Row};
+pub use rad_hemisphere::{Hemisphere, HemisphereConfig, RecastStats, Row};
 pub use rad_render::{RenderConfig, Shading, View};
 pub use rad_solver::{Enclosure, SolveConfig, Solver};
 pub use request::{

@@ -2,13 +2,15 @@
 //! settings, chooses how to hold the form factors ([`storage::choose`]) and hands the
 //! solve to one way of solving, each in a module of its own that does not call back:
 //! stored ([`stored`]), by rows under Jacobi sweeps ([`by_rows`]), out of core
-//! ([`out_of_core`]) or matrix-free ([`matrix_free`]). What they share lives below them:
+//! ([`out_of_core`]) or matrix-free ([`matrix_free`]); over a motion, step by step
+//! ([`motion`]). What they share lives below them:
 //! the settings and constants ([`config`]), the solve's answer and its file
 //! ([`solution`]).
 
 mod by_rows;
 mod config;
 mod matrix_free;
+mod motion;
 mod out_of_core;
 mod solution;
 mod storage;
@@ -18,13 +20,14 @@ pub use config::{
     Progress, SceneSolveConfig, Storage, DEFAULT_MEMORY_LIMIT, MATRIX_FREE_BATCH,
     MATRIX_FREE_OVERSHOOT, MATRIX_FREE_TOLERANCE,
 };
+pub use motion::{solve_over_motion, StepSolution};
 pub use out_of_core::OutOfCoreStats;
 pub use solution::{
     read_solution, surfaces, EnergyJson, MatrixJson, ReciprocityJson, SolutionFile, Solved,
     SolverJson, Timings,
 };
 pub use storage::{check_by_rows, choose};
-pub use stored::{solve, solve_pairs};
+pub use stored::{solve, solve_pairs, solve_pairs_from};
 
 use crate::share::{Alone, Peers};
 use crate::{Error, RowMethod, SceneFile};

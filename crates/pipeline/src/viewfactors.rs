@@ -5,8 +5,9 @@
 mod exact;
 mod motion;
 
+pub use crate::moving::MOTION_KEEP_BYTES;
 pub use exact::PolygonPairs;
-pub use motion::{view_factors_over_motion, StepViewFactors, MOTION_KEEP_BYTES};
+pub use motion::{view_factors_over_motion, StepViewFactors};
 
 use crate::rows::{check_rows, chunk_patches, for_each_chunk, stream_chunks};
 use crate::{rows_with_caster, CasterJob, CasterKind, Error};

@@ -44,8 +44,9 @@ pub use shooting::{
     shoot_matrix_free, MatrixFreeConfig, MatrixFreeStats, RowSums, ShootProgress, ShotRow,
 };
 pub use solve::{
-    energy_balance, energy_balance_from, gauss_seidel, jacobi, jacobi_with, progressive, residual,
-    residual_from, EnergyBalance, Solution, SolveConfig, SolveReport, Solver,
+    energy_balance, energy_balance_from, gauss_seidel, gauss_seidel_from, jacobi, jacobi_with,
+    progressive, residual, residual_from, EnergyBalance, Solution, SolveConfig, SolveReport,
+    Solver,
 };
 pub use surfaces::Surfaces;
 

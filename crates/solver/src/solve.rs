@@ -128,8 +128,41 @@ pub fn gauss_seidel<M: Operator>(
     surfaces: &Surfaces,
     config: &SolveConfig,
 ) -> Result<Solution, Error> {
+    gauss_seidel_from(ff, surfaces, config, surfaces.emission.clone())
+}
+
+/// [`gauss_seidel`] from the radiosities `start` instead of the emission (a warm start:
+/// the solution of a neighbouring problem, such as the step before of a motion). It
+/// converges to the same radiosities within the tolerance from any start (the sweep is
+/// a contraction where reflectances are below 1 and rows sum to at most 1); from the
+/// emission it is [`gauss_seidel`], to the bit.
+pub fn gauss_seidel_from<M: Operator>(
+    ff: &M,
+    surfaces: &Surfaces,
+    config: &SolveConfig,
+    start: Vec<[f64; 3]>,
+) -> Result<Solution, Error> {
     check(ff, surfaces, config)?;
-    let mut b = surfaces.emission.clone();
+    if start.len() != ff.n_patches() {
+        return Err(Error::LengthMismatch {
+            what: "the starting radiosities",
+            len: start.len(),
+            n_patches: ff.n_patches(),
+        });
+    }
+    if let Some((i, &value)) = start
+        .iter()
+        .enumerate()
+        .find(|(_, b)| b.iter().any(|c| !c.is_finite() || *c < 0.0))
+    {
+        return Err(Error::BadSurface {
+            patch: i as PatchId,
+            what: "starting radiosity",
+            value,
+            rule: "finite and at least 0",
+        });
+    }
+    let mut b = start;
     let mut iterations = 0;
     let mut res = residual(ff, surfaces, &b);
     let mut fresh = true;

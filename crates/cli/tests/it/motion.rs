@@ -1,6 +1,7 @@
-//! `coherad viewfactors --motion`: one whole file a step, the first (the scene as
-//! written) the very factors of a run without motion; bad motions refused by step and
-//! group, nothing written; a run killed midway leaves only complete steps.
+//! `coherad viewfactors --motion` and `coherad solve --motion`: one whole file a step,
+//! the first (the scene as written) the very factors or radiosities of a run without
+//! motion; bad motions refused by step and group, nothing written; a run killed midway
+//! leaves only complete steps.
 
 use super::{bench_scene, coherad};
 use std::path::Path;
@@ -18,6 +19,24 @@ fn turning(n: usize) -> String {
         })
         .collect();
     format!(r#"{{"steps": [{}]}}"#, steps.join(", "))
+}
+
+fn read(p: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
+/// `coherad ARGS --out DIR/plain.json` (a run without motion): its file.
+fn plain(dir: &Path, args: &[&str]) -> serde_json::Value {
+    let out = dir.join("plain.json");
+    let mut all = args.to_vec();
+    all.extend(["--out", out.to_str().unwrap()]);
+    let run = coherad(&all);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    read(&out)
 }
 
 fn files(dir: &Path) -> Vec<String> {
@@ -61,9 +80,6 @@ fn a_motion_writes_one_file_a_step_and_refuses_bad_motions() {
         err.contains("step 1 (1): 12 polygons moved") && err.contains("in part"),
         "{err}"
     );
-    let read = |p: &Path| -> serde_json::Value {
-        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
-    };
     let first = read(&out.join("step_0000.json"));
     let later = read(&out.join("step_0002.json"));
     assert!(
@@ -73,20 +89,13 @@ fn a_motion_writes_one_file_a_step_and_refuses_bad_motions() {
     );
     assert_ne!(first["surfaces"], later["surfaces"], "the arrays turned");
     // The first step leaves the scene as written: the factors of a run without motion.
+    let whole = plain(
+        dir.path(),
+        &["viewfactors", sat, "--by", "group", "--resolution", "20x80"],
+    );
+    assert_eq!(first["surfaces"], whole["surfaces"]);
+    assert_eq!(first["scene_hash"], whole["scene_hash"]);
     let plain = dir.path().join("plain.json");
-    let run = coherad(&[
-        "viewfactors",
-        sat,
-        "--by",
-        "group",
-        "--resolution",
-        "20x80",
-        "--out",
-        plain.to_str().unwrap(),
-    ]);
-    assert!(run.status.success());
-    assert_eq!(first["surfaces"], read(&plain)["surfaces"]);
-    assert_eq!(first["scene_hash"], read(&plain)["scene_hash"]);
 
     // Bad motions: named by step and group; no file written.
     for (text, says) in [
@@ -184,5 +193,95 @@ fn a_motion_killed_midway_leaves_only_complete_steps() {
         let text = std::fs::read_to_string(out.join(name)).unwrap();
         let v: serde_json::Value = serde_json::from_str(&text).expect("a whole file");
         assert!(v["surfaces"].is_array());
+    }
+}
+
+#[test]
+fn a_solve_over_a_motion_writes_a_solution_a_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let room = bench_scene("room_cart.json");
+    let room = room.to_str().unwrap();
+    let motion = dir.path().join("m.json");
+    let slide = |n: usize| -> String {
+        let steps: Vec<String> = (0..n)
+            .map(|k| {
+                format!(
+                    r#"{{"groups": {{"cart": {{"translate": [{}, 0, 0]}}}}}}"#,
+                    0.25 * k as f64
+                )
+            })
+            .collect();
+        format!(r#"{{"steps": [{}]}}"#, steps.join(", "))
+    };
+    std::fs::write(&motion, slide(3)).unwrap();
+    let out = dir.path().join("steps");
+    let run = coherad(&[
+        "solve",
+        room,
+        "--resolution",
+        "20x80",
+        "--motion",
+        motion.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{err}");
+    assert_eq!(
+        files(&out),
+        ["step_0000.json", "step_0001.json", "step_0002.json"]
+    );
+    assert!(
+        err.contains("step 1 (step 1): 6 polygons moved")
+            && err.contains("sweeps from the step before"),
+        "{err}"
+    );
+    let first = read(&out.join("step_0000.json"));
+    let later = read(&out.join("step_0002.json"));
+    assert!(
+        later["scene"]
+            .as_str()
+            .unwrap()
+            .ends_with("at step 2 (step 2)"),
+        "{}",
+        later["scene"]
+    );
+    assert!(later["solver"]["converged"].as_bool().unwrap());
+    assert!(
+        later["solver"]["energy"]["relative_imbalance"]
+            .as_f64()
+            .unwrap()
+            < 1e-6
+    );
+    assert_ne!(first["radiosity"], later["radiosity"], "the cart moved");
+    // The first step leaves the scene as written: a plain exact solve's radiosities.
+    let whole = plain(
+        dir.path(),
+        &["solve", room, "--resolution", "20x80", "--method", "exact"],
+    );
+    assert_eq!(first["radiosity"], whole["radiosity"]);
+    assert_eq!(first["scene_hash"], whole["scene_hash"]);
+    // What a motion cannot take is refused before any file is written.
+    for (flags, says) in [
+        (&["--method", "estimated"][..], "drop --method estimated"),
+        (&["--storage", "matrix-free"][..], "--storage stored"),
+    ] {
+        let bad = dir.path().join("bad");
+        let mut args = vec![
+            "solve",
+            room,
+            "--resolution",
+            "8x32",
+            "--motion",
+            motion.to_str().unwrap(),
+            "--out",
+            bad.to_str().unwrap(),
+        ];
+        args.extend_from_slice(flags);
+        let run = coherad(&args);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{flags:?}: {err}");
+        assert!(err.contains(says), "{flags:?}: {err}");
+        assert!(files(&bad).is_empty(), "{flags:?}: {:?}", files(&bad));
     }
 }

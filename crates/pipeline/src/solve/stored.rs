@@ -10,8 +10,8 @@ use crate::{Error, RowMethod, SceneFile};
 use rad_core::PatchId;
 use rad_hemisphere::Hemisphere;
 use rad_solver::{
-    energy_balance, gauss_seidel, jacobi, progressive, FormFactors, PairBuilder, PairMatrix,
-    Solver, Surfaces,
+    energy_balance, gauss_seidel, gauss_seidel_from, jacobi, progressive, FormFactors, PairBuilder,
+    PairMatrix, Solver, Surfaces,
 };
 use std::time::Instant;
 
@@ -30,6 +30,17 @@ pub fn solve_pairs(
     surfaces: &Surfaces,
     opts: &SceneSolveConfig,
 ) -> Result<Solved, Error> {
+    solve_pairs_from(ff, surfaces, opts, None)
+}
+
+/// [`solve_pairs`], Gauss-Seidel starting from the radiosities `start` where given (a
+/// warm start; the other solvers start from the emission whatever is given).
+pub fn solve_pairs_from(
+    ff: &PairMatrix,
+    surfaces: &Surfaces,
+    opts: &SceneSolveConfig,
+    start: Option<Vec<[f64; 3]>>,
+) -> Result<Solved, Error> {
     let t = Instant::now();
     let (matrix, reciprocity) = if opts.reciprocal {
         let (m, r) = ff.reciprocal(&surfaces.area, SCALING_TOLERANCE, SCALING_ITERATIONS)?;
@@ -41,7 +52,10 @@ pub fn solve_pairs(
     let m = matrix.as_ref().unwrap_or(ff);
     let t = Instant::now();
     let solution = match opts.solver {
-        Solver::GaussSeidel => gauss_seidel(m, surfaces, &opts.config)?,
+        Solver::GaussSeidel => match start {
+            Some(b) => gauss_seidel_from(m, surfaces, &opts.config, b)?,
+            None => gauss_seidel(m, surfaces, &opts.config)?,
+        },
         Solver::Progressive => progressive(m, surfaces, &opts.config)?,
         Solver::Jacobi => jacobi(m, surfaces, &opts.config)?,
     };

@@ -91,3 +91,106 @@ fn a_motion_naming_an_unknown_group_is_refused() {
     );
     assert_eq!(steps, 0, "checked before any step is made");
 }
+
+/// A motion's solves: each step's rows those of the step's scene made whole (the warm
+/// start given the same rows gives the very radiosities), the first step a cold solve
+/// to the bit, the later ones warm and within the tolerance of a cold solve in fewer
+/// sweeps.
+#[test]
+fn a_sliding_cart_is_solved_step_by_step_from_the_step_before() {
+    use rad_pipeline::solve::SceneSolveConfig;
+    use rad_pipeline::solve::{solve_over_motion, solve_pairs, solve_pairs_from, surfaces};
+    use rad_pipeline::{CasterKind, RowMethod, SceneFile};
+    use rad_solver::PairBuilder;
+    let desc = scenes::room_with_cart(0.5);
+    let mut motion = scenes::cart_motion(10);
+    motion.steps.truncate(3);
+    let file = SceneFile::of_scene("room_cart.json", Scene::new(desc.clone()).unwrap());
+    let hemi = Hemisphere::new(HemisphereConfig::exact(20, 80)).unwrap();
+    let opts = SceneSolveConfig::default();
+    let unit = motion.unit(&desc);
+    let caster = CasterKind::Scan;
+    let mut before: Option<Vec<[f64; 3]>> = None;
+    let mut seen = 0;
+    solve_over_motion(
+        (&file, &desc),
+        &motion,
+        &hemi,
+        caster,
+        &opts,
+        &|_, _| {},
+        &mut |s| {
+            let scene = motion.step_scene(&desc, &file.scene, s.step, unit).unwrap();
+            let n = scene.patches().len() as u32;
+            let all: Vec<u32> = (0..n).collect();
+            let made =
+                rad_pipeline::rows(&scene, &hemi, RowMethod::Exact { caster }, &all, &|_| {})
+                    .unwrap();
+            let mut b = PairBuilder::new(n as usize);
+            for r in &made.rows {
+                b.push_row(r.patch, &r.entries).unwrap();
+            }
+            let whole = b.finish().unwrap();
+            let surf = surfaces(&scene);
+            let cold = solve_pairs(&whole, &surf, &opts).unwrap();
+            let got = &s.solved.solution;
+            assert_eq!(s.warm, s.step > 0);
+            if s.step == 0 {
+                assert_eq!(got.radiosity, cold.solution.radiosity);
+            } else {
+                let again = solve_pairs_from(&whole, &surf, &opts, before.clone()).unwrap();
+                assert_eq!(got.radiosity, again.solution.radiosity, "step {}", s.step);
+                assert!(got.report.converged);
+                assert!(
+                    got.report.iterations < cold.solution.report.iterations,
+                    "step {}: warm {} sweeps, cold {}",
+                    s.step,
+                    got.report.iterations,
+                    cold.solution.report.iterations
+                );
+                let top = cold
+                    .solution
+                    .radiosity
+                    .iter()
+                    .flatten()
+                    .fold(0.0f64, |m, v| m.max(*v));
+                for (w, c) in got.radiosity.iter().zip(&cold.solution.radiosity) {
+                    for k in 0..3 {
+                        assert!((w[k] - c[k]).abs() <= 1e-7 * top, "{w:?} vs {c:?}");
+                    }
+                }
+            }
+            assert!(s.solved.balance.relative_imbalance < 1e-6);
+            assert!(
+                s.file.scene.contains(&format!("at step {}", s.step)),
+                "{}",
+                s.file.scene
+            );
+            before = Some(got.radiosity.clone());
+            seen += 1;
+            Ok(())
+        },
+    )
+    .unwrap();
+    assert_eq!(seen, 3);
+    // The storages that make rows anew are refused, by name.
+    let matrix_free = SceneSolveConfig {
+        storage: Some(rad_pipeline::Storage::MatrixFree),
+        ..SceneSolveConfig::default()
+    };
+    let e = solve_over_motion(
+        (&file, &desc),
+        &motion,
+        &hemi,
+        caster,
+        &matrix_free,
+        &|_, _| {},
+        &mut |_| Ok(()),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("matrix-free") && e.contains("--storage stored"),
+        "{e}"
+    );
+}

@@ -1,7 +1,10 @@
 //! Closed forms: the furnace enclosure and two facing infinite planes.
 
 use crate::{enclosure, uniform};
-use rad_solver::{energy_balance, gauss_seidel, progressive, FormFactors, SolveConfig, Surfaces};
+use rad_solver::{
+    energy_balance, gauss_seidel, gauss_seidel_from, progressive, Error, FormFactors, SolveConfig,
+    Surfaces,
+};
 
 #[test]
 fn furnace_converges_to_e_over_one_minus_rho_with_both_solvers() {
@@ -64,4 +67,48 @@ fn two_facing_planes() {
             sol.radiosity
         );
     }
+}
+
+#[test]
+fn a_warm_start_reaches_the_same_radiosities_in_fewer_sweeps() {
+    let (ff, area) = enclosure(60, 7, 0.3);
+    let s = uniform(&area, [1.0, 0.5, 2.0], [0.5, 0.8, 0.3]);
+    let cfg = SolveConfig {
+        tolerance: 1e-10,
+        max_iterations: 1_000_000,
+    };
+    let cold = gauss_seidel(&ff, &s, &cfg).unwrap();
+    // From the emission: the cold solve, to the bit.
+    let same = gauss_seidel_from(&ff, &s, &cfg, s.emission.clone()).unwrap();
+    assert_eq!(same.radiosity, cold.radiosity);
+    assert_eq!(same.report.iterations, cold.report.iterations);
+    // From a neighbour's answer (a tenth off): the same within the tolerance, sooner.
+    let near: Vec<[f64; 3]> = cold.radiosity.iter().map(|b| b.map(|c| c * 1.1)).collect();
+    let warm = gauss_seidel_from(&ff, &s, &cfg, near).unwrap();
+    assert!(warm.report.converged, "{:?}", warm.report);
+    assert!(
+        warm.report.iterations < cold.report.iterations,
+        "warm {} sweeps, cold {}",
+        warm.report.iterations,
+        cold.report.iterations
+    );
+    for (w, c) in warm.radiosity.iter().zip(&cold.radiosity) {
+        for k in 0..3 {
+            assert!((w[k] - c[k]).abs() <= 1e-8 * c[k], "{w:?} vs {c:?}");
+        }
+    }
+    // From the answer itself: no sweep at all.
+    let at = gauss_seidel_from(&ff, &s, &cfg, cold.radiosity.clone()).unwrap();
+    assert_eq!(at.report.iterations, 0);
+    assert_eq!(at.radiosity, cold.radiosity);
+    // A start of the wrong length, or not finite: refused.
+    let short = gauss_seidel_from(&ff, &s, &cfg, vec![[0.0; 3]; 3]);
+    assert!(
+        matches!(short, Err(Error::LengthMismatch { .. })),
+        "{short:?}"
+    );
+    let mut nan = cold.radiosity.clone();
+    nan[5][1] = f64::NAN;
+    let bad = gauss_seidel_from(&ff, &s, &cfg, nan).unwrap_err();
+    assert!(bad.to_string().contains("patch 5"), "{bad}");
 }
