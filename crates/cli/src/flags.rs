@@ -235,6 +235,12 @@ pub struct ExportArgs {
     /// percentile of the patches' luminance maps to 0.8.
     #[arg(long, allow_negative_numbers = true, value_name = "EV")]
     pub exposure: Option<f64>,
+    /// A motion file (JSON; see docs/formats.md): one binary glTF a step of the scene
+    /// moved as `solve --motion` moved it. --solution is then the folder `solve
+    /// --motion` wrote, --out a folder that gets step_0000.glb and on, all at the first
+    /// step's exposure.
+    #[arg(long)]
+    pub motion: Option<PathBuf>,
 }
 
 /// `coherad render`'s flags.
@@ -282,6 +288,12 @@ pub struct RenderArgs {
     /// PNG exposure (multiplier before tone mapping); default: the 95th percentile of lit pixels maps to 0.8.
     #[arg(long)]
     pub exposure: Option<f32>,
+    /// A motion file (JSON; see docs/formats.md): one image a step of the scene moved
+    /// as `solve --motion` moved it. --solution is then the folder `solve --motion`
+    /// wrote, --out (and --png) folders that get step_0000.exr (.png) and on; the
+    /// camera stays, and the PNGs share the first step's exposure.
+    #[arg(long)]
+    pub motion: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

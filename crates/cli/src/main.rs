@@ -18,6 +18,7 @@ mod exit;
 mod export;
 mod flags;
 mod formfactors;
+mod moving;
 mod patches;
 mod render;
 mod report;

@@ -4,49 +4,40 @@
 use crate::context::Ctx;
 use crate::exit::{Error, Outcome};
 use crate::flags::RenderArgs;
-use rad_pipeline::images::{radiance_of, render_to_files};
+use crate::moving::{made_folder, solution_folder, Steps};
+use crate::report::say;
+use rad_pipeline::images::{
+    auto_exposure, radiance_of, render_image, render_to_files, write_exr, write_png,
+};
 use rad_pipeline::solve::read_solution;
 use rad_pipeline::{Camera, RenderConfig, SceneFile, Vec3, View};
+use std::path::Path;
 
 /// `coherad render`: the solution's image from the scene's camera or the flags'.
 pub fn run(ctx: &Ctx, args: &RenderArgs) -> Result<Outcome, Error> {
+    if let Some(motion) = &args.motion {
+        return moving(ctx, args, motion);
+    }
     let scene = ctx.load(&args.scene)?;
     let RenderArgs {
         scene: _,
         solution,
         out,
-        eye,
-        look_at,
-        up,
-        fov,
+        eye: _,
+        look_at: _,
+        up: _,
+        fov: _,
         radiance,
         png,
-        width,
-        height,
+        width: _,
+        height: _,
         samples,
         shading,
         exposure,
+        motion: _,
     } = args;
-    if let Some(x) = exposure {
-        if png.is_none() {
-            return Err(Error::Flags(
-                "--exposure sets the PNG preview's exposure: give --png too".into(),
-            ));
-        }
-        if !(x.is_finite() && *x > 0.0) {
-            return Err(Error::Flags(format!(
-                "--exposure must be finite and > 0, not {x}"
-            )));
-        }
-    }
-    let flags = CameraFlags {
-        eye: eye.as_deref(),
-        look_at: look_at.as_deref(),
-        up: up.as_deref(),
-        fov: *fov,
-    };
-    let camera = camera(&scene, &flags)?;
-    let view = View::new(&camera, *width, *height).map_err(rad_pipeline::Error::from)?;
+    check_exposure(args)?;
+    let view = view(&scene, args)?;
     let mut b = read_solution(solution, &scene)?;
     if *radiance {
         b = radiance_of(&b);
@@ -64,6 +55,75 @@ pub fn run(ctx: &Ctx, args: &RenderArgs) -> Result<Outcome, Error> {
         png.as_deref(),
         *exposure,
     )?;
+    Ok(Outcome::Done)
+}
+
+/// `--exposure` is the PNG's: refused without `--png`, or not finite and positive.
+fn check_exposure(args: &RenderArgs) -> Result<(), Error> {
+    if let Some(x) = args.exposure {
+        if args.png.is_none() {
+            return Err(Error::Flags(
+                "--exposure sets the PNG preview's exposure: give --png too".into(),
+            ));
+        }
+        if !(x.is_finite() && x > 0.0) {
+            return Err(Error::Flags(format!(
+                "--exposure must be finite and > 0, not {x}"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The view the flags ask for of `scene`.
+fn view(scene: &SceneFile, args: &RenderArgs) -> Result<View, Error> {
+    let flags = CameraFlags {
+        eye: args.eye.as_deref(),
+        look_at: args.look_at.as_deref(),
+        up: args.up.as_deref(),
+        fov: args.fov,
+    };
+    let camera = camera(scene, &flags)?;
+    Ok(View::new(&camera, args.width, args.height).map_err(rad_pipeline::Error::from)?)
+}
+
+/// Over a motion: one image a step into the folder `--out` (and a PNG into the folder
+/// `--png`), each step's solution read from the folder `--solution` (as `solve
+/// --motion` wrote it) against that step's scene; one camera, and the PNGs at the
+/// first step's exposure, so that the steps compare.
+fn moving(ctx: &Ctx, args: &RenderArgs, motion: &Path) -> Result<Outcome, Error> {
+    check_exposure(args)?;
+    let solutions = solution_folder(Some(&args.solution))?.expect("given");
+    let steps = Steps::load(ctx, &args.scene, motion)?;
+    let view = view(&steps.scene, args)?;
+    let dir = &args.out;
+    made_folder("--out", dir)?;
+    if let Some(png) = &args.png {
+        made_folder("--png", png)?;
+    }
+    let config = RenderConfig {
+        samples: args.samples,
+        shading: args.shading.shading(),
+    };
+    let mut exposure = args.exposure;
+    for k in 0..steps.motion.steps.len() {
+        let scene = steps.scene(k)?;
+        let mut b = read_solution(&Steps::file(solutions, k, "json"), &scene)?;
+        if args.radiance {
+            b = radiance_of(&b);
+        }
+        let img = render_image(&scene.scene, &b, &view, &config)?;
+        let exr = Steps::file(dir, k, "exr");
+        write_exr(&exr, &img)?;
+        let mut line = format!("step {k}: {}", exr.display());
+        if let Some(png) = &args.png {
+            let x = *exposure.get_or_insert_with(|| auto_exposure(&img));
+            let path = Steps::file(png, k, "png");
+            write_png(&path, &img, x)?;
+            line += &format!(", {} (exposure {x:.4})", path.display());
+        }
+        say!(ctx.report, "{line}");
+    }
     Ok(Outcome::Done)
 }
 

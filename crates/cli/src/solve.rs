@@ -4,8 +4,8 @@
 use crate::context::{emit, hemisphere, Ctx};
 use crate::exit::{Error, Outcome, EXIT_NOT_CONVERGED};
 use crate::flags::{Method, SolveArgs};
+use crate::moving::{motion_folder, recast_note, steps_bar};
 use crate::report::{say, warning, Report};
-use crate::viewfactors::{motion_folder, recast_note, steps_bar};
 use indicatif::ProgressBar;
 use rad_pipeline::output::write_atomic;
 use rad_pipeline::share::Peers;

@@ -5,6 +5,7 @@
 use crate::context::{emit, hemisphere, Ctx};
 use crate::exit::{Error, Outcome};
 use crate::flags::{matrix_format, ViewfactorsArgs};
+use crate::moving::{motion_folder, recast_note, steps_bar};
 use crate::report::{say, warning, Report};
 use indicatif::ProgressBar;
 use rad_pipeline::output::write_atomic;
@@ -12,11 +13,9 @@ use rad_pipeline::share::Peers;
 use rad_pipeline::viewfactors::{
     area_rows, check_format, row_patches, stream_patch_matrix, view_factors, view_factors_of_rows,
     view_factors_over_motion, write_view_factors, MatrixFormat, ViewFactorConfig, ViewFactorRun,
-    ViewFactors, MOTION_KEEP_BYTES,
+    ViewFactors,
 };
-use rad_pipeline::{
-    EstimateStats, Hemisphere, Motion, RecastStats, RowMethod, SceneFile, ViewFactorRequest,
-};
+use rad_pipeline::{EstimateStats, Hemisphere, RowMethod, SceneFile, ViewFactorRequest};
 use std::path::Path;
 
 pub fn run(ctx: &Ctx, args: &ViewfactorsArgs) -> Result<Outcome, Error> {
@@ -124,77 +123,6 @@ fn moving(
     )?;
     bar.finish_and_clear();
     Ok(Outcome::Done)
-}
-
-/// What a step of a motion cast again, for its line on standard error.
-pub(crate) fn recast_note(moved_polygons: usize, r: &RecastStats) -> String {
-    let unkept = if r.not_kept > 0 {
-        format!(
-            "; {} patches kept nothing for the next step (over {} MiB of buffers)",
-            r.not_kept,
-            MOTION_KEEP_BYTES >> 20
-        )
-    } else {
-        String::new()
-    };
-    format!(
-        "{moved_polygons} polygons moved; {} patches cast whole, {} in part, {:.2} % of cells cast{unkept}",
-        r.whole,
-        r.partly,
-        100.0 * r.cast_share()
-    )
-}
-
-/// The folder `--out` names for a run over a motion, made if missing, and the motion
-/// read from `path` and checked against `desc`: refused under MPI, without `--out`, or
-/// with `--out` a file (before any folder is made).
-pub(crate) fn motion_folder<'p>(
-    ctx: &Ctx,
-    out: Option<&'p Path>,
-    path: &Path,
-    desc: &rad_pipeline::SceneDesc,
-) -> Result<(&'p Path, Motion), Error> {
-    if ctx.ranks.size() > 1 {
-        return Err(Error::Flags(
-            "--motion runs in one process: run it without mpirun".into(),
-        ));
-    }
-    let Some(dir) = out else {
-        return Err(Error::Flags(
-            "--motion writes one file a step: give --out FOLDER".into(),
-        ));
-    };
-    if dir.is_file() {
-        return Err(Error::Flags(format!(
-            "--out {} is a file: with --motion, give a folder (one file a step)",
-            dir.display()
-        )));
-    }
-    let motion = Motion::read(path).map_err(rad_pipeline::Error::from)?;
-    motion.check(desc).map_err(rad_pipeline::Error::from)?;
-    std::fs::create_dir_all(dir).map_err(|source| rad_pipeline::Error::Io {
-        action: "create",
-        path: dir.to_path_buf(),
-        source,
-    })?;
-    Ok((dir, motion))
-}
-
-/// A bar over the patches of every step of `motion` (`what` over N steps).
-pub(crate) fn steps_bar(
-    report: &Report,
-    motion: &Motion,
-    n_patches: usize,
-    hemi: &Hemisphere,
-    what: &str,
-) -> ProgressBar {
-    let n_steps = motion.steps.len();
-    report.bar(
-        n_steps * n_patches,
-        (n_steps * n_patches * hemi.n_cells()) as u64 / 10,
-        "patches",
-        format!("{what} over {n_steps} steps"),
-    )
 }
 
 /// A bar over the patches, shown on long jobs.

@@ -24,6 +24,7 @@ pub mod images;
 pub mod matrix_file;
 mod method;
 mod moving;
+pub use moving::step_scene_file;
 pub mod output;
 mod parse;
 mod request;

@@ -5,7 +5,7 @@
 //! that step's scene.
 
 use crate::rows::check_rows;
-use crate::{rows_with_caster, CasterJob, CasterKind, Error};
+use crate::{rows_with_caster, CasterJob, CasterKind, Error, SceneFile};
 use rad_geometry::{Motion, Scene, SceneDesc};
 use rad_hemisphere::{
     moved_area_rows_from, moved_polygons, Caster, Hemisphere, KeptBuffers, RecastStats, Row,
@@ -14,6 +14,23 @@ use rad_hemisphere::{
 /// The most bytes of item buffers (run-length coded) and rows kept from one step for
 /// the next: past them, patches are cast whole at the next step (the same factors).
 pub const MOTION_KEEP_BYTES: usize = 1536 << 20;
+
+/// Step `k` of `motion` over `scene` (loaded from `desc`), in the motion's `unit`
+/// ([`Motion::unit`]), as a scene file named for the step: "PATH at step K (NAME)".
+/// Its fingerprint is the one a solution of the step records.
+pub fn step_scene_file(
+    (scene, desc): (&SceneFile, &SceneDesc),
+    motion: &Motion,
+    unit: f64,
+    k: usize,
+) -> Result<SceneFile, Error> {
+    let step = motion.step_scene(desc, &scene.scene, k, unit)?;
+    let name = &motion.steps[k].name;
+    Ok(SceneFile::of_scene(
+        format!("{} at step {k} ({name})", scene.path.display()),
+        step,
+    ))
+}
 
 /// What carries from one step of a motion to the next: the item buffers and the scene.
 pub(crate) struct MotionRows<'a> {

@@ -261,6 +261,7 @@ fn a_solve_over_a_motion_writes_a_solution_a_step() {
     );
     assert_eq!(first["radiosity"], whole["radiosity"]);
     assert_eq!(first["scene_hash"], whole["scene_hash"]);
+    renders_and_exports_each_step(dir.path(), room, &motion, &out);
     // What a motion cannot take is refused before any file is written.
     for (flags, says) in [
         (&["--method", "estimated"][..], "drop --method estimated"),
@@ -284,4 +285,101 @@ fn a_solve_over_a_motion_writes_a_solution_a_step() {
         assert!(err.contains(says), "{flags:?}: {err}");
         assert!(files(&bad).is_empty(), "{flags:?}: {:?}", files(&bad));
     }
+}
+
+/// `render` and `export --motion` over the steps `solve --motion` wrote into `out`.
+fn renders_and_exports_each_step(dir: &Path, room: &str, motion: &Path, out: &Path) {
+    // Images and glTF files of the steps, each step's solution read against its scene.
+    let (m, o) = (motion.to_str().unwrap(), out.to_str().unwrap());
+    let images = dir.join("images");
+    let run = coherad(&[
+        "render",
+        room,
+        "--motion",
+        m,
+        "--solution",
+        o,
+        "--out",
+        images.to_str().unwrap(),
+        "--png",
+        images.to_str().unwrap(),
+        "--eye",
+        "2.5,1.5,3.9",
+        "--look-at",
+        "2.5,0.5,0",
+        "--width",
+        "32",
+        "--height",
+        "24",
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert_eq!(
+        files(&images),
+        [
+            "step_0000.exr",
+            "step_0000.png",
+            "step_0001.exr",
+            "step_0001.png",
+            "step_0002.exr",
+            "step_0002.png"
+        ]
+    );
+    let gltf = dir.join("gltf");
+    let run = coherad(&[
+        "export",
+        room,
+        "--motion",
+        m,
+        "--solution",
+        o,
+        "--out",
+        gltf.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{err}");
+    assert_eq!(
+        files(&gltf),
+        ["step_0000.glb", "step_0001.glb", "step_0002.glb"]
+    );
+    // (One exposure for every step, so that they compare.)
+    let evs: Vec<&str> = err.lines().filter_map(|l| l.split("(EV ").nth(1)).collect();
+    assert_eq!(evs.len(), 3, "{err}");
+    assert!(evs.iter().all(|e| *e == evs[0]), "{err}");
+    // A step's solution read against another step's scene is refused by its hash.
+    let swapped = dir.join("swapped");
+    std::fs::create_dir(&swapped).unwrap();
+    std::fs::copy(out.join("step_0000.json"), swapped.join("step_0000.json")).unwrap();
+    std::fs::copy(out.join("step_0000.json"), swapped.join("step_0001.json")).unwrap();
+    let run = coherad(&[
+        "export",
+        room,
+        "--motion",
+        m,
+        "--solution",
+        swapped.to_str().unwrap(),
+        "--out",
+        dir.join("g2").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("step_0001.json") && err.contains("scene_hash"),
+        "{err}"
+    );
+    // With --motion, --solution names the folder solve wrote, not a file.
+    let run = coherad(&[
+        "export",
+        room,
+        "--motion",
+        m,
+        "--solution",
+        &format!("{o}/step_0000.json"),
+        "--out",
+        dir.join("g3").to_str().unwrap(),
+    ]);
+    assert!(String::from_utf8_lossy(&run.stderr).contains("is a file"));
 }

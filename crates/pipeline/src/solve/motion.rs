@@ -8,7 +8,7 @@
 use super::config::{SceneSolveConfig, Storage};
 use super::solution::{check_finite, solution_file, surfaces, SolutionFile, Solved};
 use super::stored::solve_pairs_from;
-use crate::moving::{MotionRows, StepRows};
+use crate::moving::{step_scene_file, MotionRows, StepRows};
 use crate::{CasterKind, Error, Progress, RowMethod, SceneFile};
 use rad_geometry::{Motion, SceneDesc};
 use rad_hemisphere::{Hemisphere, RecastStats};
@@ -62,11 +62,13 @@ pub fn solve_over_motion(
         });
     }
     let mut steps = MotionRows::new(desc, &scene.scene, motion)?;
+    let unit = motion.unit(desc);
     let method = RowMethod::Exact { caster };
     let mut start: Option<Vec<[f64; 3]>> = None;
     for k in 0..motion.steps.len() {
         let t = Instant::now();
-        let step_scene = steps.scene(k)?;
+        let file_scene = step_scene_file((scene, desc), motion, unit, k)?;
+        let step_scene = &file_scene.scene;
         let n = step_scene.patches().len();
         let all: Vec<u32> = (0..n as u32).collect();
         let rows_progress = |p: usize| progress(k, Progress::Rows(p));
@@ -74,7 +76,7 @@ pub fn solve_over_motion(
             rows,
             recast,
             moved_polygons,
-        } = steps.rows(&step_scene, caster, hemi, 1, &all, &rows_progress)?;
+        } = steps.rows(step_scene, caster, hemi, 1, &all, &rows_progress)?;
         let mut builder = PairBuilder::new(n);
         for r in rows {
             builder.push_row(r.patch, &r.entries)?;
@@ -83,14 +85,9 @@ pub fn solve_over_motion(
         let form_factors_seconds = t.elapsed().as_secs_f64();
         let warm = opts.solver == Solver::GaussSeidel && start.is_some();
         let first = if warm { start.take() } else { None };
-        let solved = solve_pairs_from(&raw, &surfaces(&step_scene), opts, first)?;
+        let solved = solve_pairs_from(&raw, &surfaces(step_scene), opts, first)?;
         drop(raw);
         check_finite(&solved)?;
-        let name = &motion.steps[k].name;
-        let file_scene = SceneFile::of_scene(
-            format!("{} at step {k} ({name})", scene.path.display()),
-            step_scene,
-        );
         let file = solution_file(
             &file_scene,
             hemi,
@@ -102,7 +99,7 @@ pub fn solve_over_motion(
         start = Some(solved.solution.radiosity.clone());
         each(StepSolution {
             step: k,
-            name: name.clone(),
+            name: motion.steps[k].name.clone(),
             file,
             solved,
             recast,

@@ -1,0 +1,156 @@
+//! What the commands that take `--motion` share: the folder of step files, the motion
+//! read and checked, each step's scene, a step's line and the bar over the steps.
+
+use crate::context::Ctx;
+use crate::exit::Error;
+use crate::report::Report;
+use indicatif::ProgressBar;
+use rad_pipeline::share::Peers;
+use rad_pipeline::viewfactors::MOTION_KEEP_BYTES;
+use rad_pipeline::{Hemisphere, Motion, RecastStats, SceneDesc, SceneFile};
+use std::path::{Path, PathBuf};
+
+/// What a step of a motion cast again, for its line on standard error.
+pub(crate) fn recast_note(moved_polygons: usize, r: &RecastStats) -> String {
+    let unkept = if r.not_kept > 0 {
+        format!(
+            "; {} patches kept nothing for the next step (over {} MiB of buffers)",
+            r.not_kept,
+            MOTION_KEEP_BYTES >> 20
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "{moved_polygons} polygons moved; {} patches cast whole, {} in part, {:.2} % of cells cast{unkept}",
+        r.whole,
+        r.partly,
+        100.0 * r.cast_share()
+    )
+}
+
+/// The folder `--out` names for a run over a motion, made if missing, and the motion
+/// read from `path` and checked against `desc`: refused under MPI, without `--out`, or
+/// with `--out` a file (before any folder is made).
+pub(crate) fn motion_folder<'p>(
+    ctx: &Ctx,
+    out: Option<&'p Path>,
+    path: &Path,
+    desc: &SceneDesc,
+) -> Result<(&'p Path, Motion), Error> {
+    if ctx.ranks.size() > 1 {
+        return Err(Error::Flags(
+            "--motion runs in one process: run it without mpirun".into(),
+        ));
+    }
+    let Some(dir) = out else {
+        return Err(Error::Flags(
+            "--motion writes one file a step: give --out FOLDER".into(),
+        ));
+    };
+    if dir.is_file() {
+        return Err(Error::Flags(format!(
+            "--out {} is a file: with --motion, give a folder (one file a step)",
+            dir.display()
+        )));
+    }
+    let motion = Motion::read(path).map_err(rad_pipeline::Error::from)?;
+    motion.check(desc).map_err(rad_pipeline::Error::from)?;
+    std::fs::create_dir_all(dir).map_err(|source| rad_pipeline::Error::Io {
+        action: "create",
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    Ok((dir, motion))
+}
+
+/// A bar over the patches of every step of `motion` (`what` over N steps).
+pub(crate) fn steps_bar(
+    report: &Report,
+    motion: &Motion,
+    n_patches: usize,
+    hemi: &Hemisphere,
+    what: &str,
+) -> ProgressBar {
+    let n_steps = motion.steps.len();
+    report.bar(
+        n_steps * n_patches,
+        (n_steps * n_patches * hemi.n_cells()) as u64 / 10,
+        "patches",
+        format!("{what} over {n_steps} steps"),
+    )
+}
+
+/// A scene loaded whole for a motion, and the motion: each step's scene, as `solve
+/// --motion` made it (so that its solution file reads back against it).
+pub(crate) struct Steps {
+    pub scene: SceneFile,
+    pub desc: SceneDesc,
+    pub motion: Motion,
+    unit: f64,
+}
+
+impl Steps {
+    /// Loads `scene` keeping its description, reads `motion` and checks it against it
+    /// (one process only: refused under MPI). Makes no folder.
+    pub fn load(ctx: &Ctx, scene: &Path, motion: &Path) -> Result<Steps, Error> {
+        if ctx.ranks.size() > 1 {
+            return Err(Error::Flags(
+                "--motion runs in one process: run it without mpirun".into(),
+            ));
+        }
+        let (scene, desc) = ctx.load_keeping(scene, true)?;
+        let desc = desc.expect("kept as asked");
+        let motion = Motion::read(motion).map_err(rad_pipeline::Error::from)?;
+        motion.check(&desc).map_err(rad_pipeline::Error::from)?;
+        let unit = motion.unit(&desc);
+        Ok(Steps {
+            scene,
+            desc,
+            motion,
+            unit,
+        })
+    }
+
+    /// Step `k`'s scene, named for the step.
+    pub fn scene(&self, k: usize) -> Result<SceneFile, Error> {
+        Ok(rad_pipeline::step_scene_file(
+            (&self.scene, &self.desc),
+            &self.motion,
+            self.unit,
+            k,
+        )?)
+    }
+
+    /// Step `k`'s file in `dir`: `step_0000.EXT` and on.
+    pub fn file(dir: &Path, k: usize, ext: &str) -> PathBuf {
+        dir.join(format!("step_{k:04}.{ext}"))
+    }
+}
+
+/// `--solution` with `--motion`: the folder `solve --motion` wrote (a file is refused).
+pub(crate) fn solution_folder(solution: Option<&Path>) -> Result<Option<&Path>, Error> {
+    match solution {
+        Some(p) if p.is_file() => Err(Error::Flags(format!(
+            "--solution {} is a file: with --motion, give the folder `coherad solve --motion` wrote (step_0000.json and on)",
+            p.display()
+        ))),
+        other => Ok(other),
+    }
+}
+
+/// A folder for `--png` with `--motion`: made if missing (a file is refused).
+pub(crate) fn made_folder(flag: &str, dir: &Path) -> Result<(), Error> {
+    if dir.is_file() {
+        return Err(Error::Flags(format!(
+            "{flag} {} is a file: with --motion, give a folder (one file a step)",
+            dir.display()
+        )));
+    }
+    std::fs::create_dir_all(dir).map_err(|source| rad_pipeline::Error::Io {
+        action: "create",
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    Ok(())
+}
