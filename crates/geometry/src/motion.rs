@@ -8,7 +8,7 @@
 
 use crate::error::Error;
 use crate::scene::{PatchGrid, Scene, SceneDesc};
-use glam::{DMat3, DVec3};
+use glam::{DMat3, DQuat, DVec3};
 use serde::Deserialize;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -70,7 +70,21 @@ struct FileMotion {
     #[serde(default)]
     #[allow(dead_code)]
     description: Option<String>,
-    steps: Vec<FileStep>,
+    #[serde(default)]
+    steps: Option<Vec<FileStep>>,
+    /// Poses at given times, interpolated at `times`.
+    #[serde(default)]
+    keyframes: Option<Vec<FileKeyframe>>,
+    #[serde(default)]
+    times: Option<Vec<f64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileKeyframe {
+    time: f64,
+    #[serde(default)]
+    groups: BTreeMap<String, FilePose>,
 }
 
 #[derive(Deserialize)]
@@ -126,26 +140,23 @@ impl Motion {
             path: path.to_path_buf(),
             message,
         };
-        if file.steps.is_empty() {
-            return Err(fail("the motion has no steps".into()));
-        }
-        if file.steps.len() > MAX_STEPS {
-            return Err(fail(format!(
-                "the motion has {} steps, over the limit of {MAX_STEPS}",
-                file.steps.len()
-            )));
-        }
-        let mut steps = Vec::with_capacity(file.steps.len());
-        for (k, step) in file.steps.into_iter().enumerate() {
-            let name = step.name.unwrap_or_else(|| format!("step {k}"));
-            let mut poses = BTreeMap::new();
-            for (group, pose) in step.groups {
-                let rigid = pose_of(&pose)
-                    .map_err(|why| fail(format!("step {k} ({name:?}), group {group:?}: {why}")))?;
-                poses.insert(group, rigid);
+        let steps = match (file.steps, file.keyframes, file.times) {
+            (Some(steps), None, None) => file_steps(steps),
+            (None, Some(keys), Some(times)) => keyframed(keys, &times),
+            (None, Some(_), None) => {
+                Err("\"keyframes\" need \"times\": the times at which to make steps".into())
             }
-            steps.push(MotionStep { name, poses });
+            (None, None, Some(_)) => {
+                Err("\"times\" need \"keyframes\": the poses to interpolate".into())
+            }
+            (None, None, None) => Err(
+                "the motion has no steps (give \"steps\", or \"keyframes\" and \"times\")".into(),
+            ),
+            (Some(_), _, _) => {
+                Err("give \"steps\", or \"keyframes\" and \"times\", not both".into())
+            }
         }
+        .map_err(fail)?;
         Ok(Motion {
             path: path.to_path_buf(),
             steps,
@@ -297,8 +308,147 @@ impl Motion {
     }
 }
 
-/// The rigid transform a file's pose gives, or why it is none.
-fn pose_of(pose: &FilePose) -> Result<Rigid, String> {
+/// A motion file's steps, each pose checked.
+fn file_steps(file: Vec<FileStep>) -> Result<Vec<MotionStep>, String> {
+    check_count(file.len())?;
+    let mut steps = Vec::with_capacity(file.len());
+    for (k, step) in file.into_iter().enumerate() {
+        let name = step.name.unwrap_or_else(|| format!("step {k}"));
+        let mut poses = BTreeMap::new();
+        for (group, pose) in step.groups {
+            let pose = pose_of(&pose)
+                .map_err(|why| format!("step {k} ({name:?}), group {group:?}: {why}"))?;
+            poses.insert(group, pose.rigid());
+        }
+        steps.push(MotionStep { name, poses });
+    }
+    Ok(steps)
+}
+
+/// Refuses no steps, or more than [`MAX_STEPS`].
+fn check_count(n: usize) -> Result<(), String> {
+    match n {
+        0 => Err("the motion has no steps".into()),
+        n if n > MAX_STEPS => Err(format!(
+            "the motion has {n} steps, over the limit of {MAX_STEPS}"
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// The largest turn between two keyframes of a group, degrees: past it the shorter way
+/// round is ill-defined (at 180° there are two), so a keyframe must come between.
+pub const MAX_KEYFRAME_TURN_DEGREES: f64 = 179.0;
+
+/// Steps at `times` from keyframes: each group's pose interpolated between the two
+/// keyframes that name it around the time (rotation by the shorter arc, the pivot and
+/// the translation in a straight line), held before its first keyframe and after its
+/// last; at a keyframe's time, that keyframe's pose, to the bit.
+fn keyframed(keys: Vec<FileKeyframe>, times: &[f64]) -> Result<Vec<MotionStep>, String> {
+    if keys.is_empty() {
+        return Err("\"keyframes\" is empty".into());
+    }
+    check_count(times.len())?;
+    let mut tracks: BTreeMap<String, Vec<(f64, Pose)>> = BTreeMap::new();
+    let mut last = f64::NEG_INFINITY;
+    for (k, key) in keys.iter().enumerate() {
+        if !key.time.is_finite() || key.time <= last {
+            return Err(format!(
+                "keyframe {k}: time {} is not finite or not after the keyframe before's ({last}); keyframes go in increasing time",
+                key.time
+            ));
+        }
+        last = key.time;
+        for (group, pose) in &key.groups {
+            let pose = pose_of(pose).map_err(|why| {
+                format!("keyframe {k} (time {}), group {group:?}: {why}", key.time)
+            })?;
+            let track = tracks.entry(group.clone()).or_default();
+            if let Some((t0, before)) = track.last() {
+                let turn = before.turn_to(&pose).to_degrees();
+                if turn > MAX_KEYFRAME_TURN_DEGREES {
+                    return Err(format!(
+                        "group {group:?} turns {turn:.2}° between times {t0} and {}: over {MAX_KEYFRAME_TURN_DEGREES}° the way round is ambiguous; add a keyframe between",
+                        key.time
+                    ));
+                }
+            }
+            track.push((key.time, pose));
+        }
+    }
+    if let Some((i, t)) = times.iter().enumerate().find(|(_, t)| !t.is_finite()) {
+        return Err(format!("times[{i}] = {t} is not finite"));
+    }
+    Ok(times
+        .iter()
+        .map(|&t| MotionStep {
+            name: format!("t = {t}"),
+            poses: tracks
+                .iter()
+                .map(|(group, track)| (group.clone(), pose_at(track, t).rigid()))
+                .collect(),
+        })
+        .collect())
+}
+
+/// A group's pose at time `t` from its keyframes (in increasing time).
+fn pose_at(track: &[(f64, Pose)], t: f64) -> Pose {
+    let after = track.partition_point(|(time, _)| *time <= t);
+    if after == 0 {
+        return track[0].1;
+    }
+    let (t0, a) = track[after - 1];
+    if after == track.len() || t0 == t {
+        return a;
+    }
+    let (t1, b) = track[after];
+    if a == b {
+        return a;
+    }
+    a.towards(&b, (t - t0) / (t1 - t0))
+}
+
+/// A pose as a file gives it: `x' = R (x − about) + about + translate`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Pose {
+    rotation: DMat3,
+    about: DVec3,
+    translate: DVec3,
+}
+
+impl Pose {
+    fn rigid(&self) -> Rigid {
+        Rigid {
+            rotation: self.rotation,
+            translation: self.about - self.rotation * self.about + self.translate,
+        }
+    }
+
+    /// The angle of the rotation from this pose's to `other`'s, radians.
+    fn turn_to(&self, other: &Pose) -> f64 {
+        let (a, b) = (
+            DQuat::from_mat3(&self.rotation),
+            DQuat::from_mat3(&other.rotation),
+        );
+        2.0 * a.dot(b).abs().min(1.0).acos()
+    }
+
+    /// The pose a share `s` (in (0, 1)) of the way to `other`.
+    fn towards(&self, other: &Pose, s: f64) -> Pose {
+        let a = DQuat::from_mat3(&self.rotation).normalize();
+        let b = DQuat::from_mat3(&other.rotation).normalize();
+        // (The shorter arc: q and −q are one rotation.)
+        let b = if a.dot(b) < 0.0 { -b } else { b };
+        Pose {
+            rotation: DMat3::from_quat(a.slerp(b, s).normalize()),
+            about: self.about.lerp(other.about, s),
+            translate: self.translate.lerp(other.translate, s),
+        }
+    }
+}
+
+/// The pose a file gives, or why it is none.
+fn pose_of(pose: &FilePose) -> Result<Pose, String> {
     let finite = |what: &str, v: &[f64]| {
         if v.iter().all(|c| c.is_finite()) {
             Ok(())
@@ -333,9 +483,10 @@ fn pose_of(pose: &FilePose) -> Result<Rigid, String> {
         }
         (None, None) => DMat3::IDENTITY,
     };
-    Ok(Rigid {
+    Ok(Pose {
         rotation,
-        translation: about - rotation * about + translate,
+        about,
+        translate,
     })
 }
 
@@ -485,5 +636,86 @@ mod tests {
                 && e.contains("overlap"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn keyframes_are_interpolated_about_their_pivot_and_held_outside() {
+        // A hinge about the z axis through (1, 0, 0): 0° at t = 0, 90° at t = 2; a cart
+        // from 0 to 4 along x between t = 1 and t = 3.
+        let m = parse(
+            r#"{"keyframes": [
+                {"time": 0, "groups": {"hinge": {"rotate": {"axis": [0, 0, 1], "degrees": 0}, "about": [1, 0, 0]}}},
+                {"time": 1, "groups": {"cart": {}}},
+                {"time": 2, "groups": {"hinge": {"rotate": {"axis": [0, 0, 1], "degrees": 90}, "about": [1, 0, 0]}}},
+                {"time": 3, "groups": {"cart": {"translate": [4, 0, 0]}}}],
+              "times": [-1, 0, 1, 2, 2.5, 4]}"#,
+        )
+        .unwrap();
+        assert_eq!(m.steps.len(), 6);
+        assert_eq!(m.steps[4].name, "t = 2.5");
+        let at = |k: usize, g: &str, p: [f64; 3]| m.steps[k].poses[g].apply(DVec3::from(p));
+        // Halfway (t = 1): 45° about the pivot, the pivot fixed.
+        let half = std::f64::consts::FRAC_1_SQRT_2;
+        assert!(
+            (at(2, "hinge", [2.0, 0.0, 0.0]) - DVec3::new(1.0 + half, half, 0.0)).length() < 1e-12
+        );
+        assert!((at(2, "hinge", [1.0, 0.0, 0.0]) - DVec3::X).length() < 1e-12);
+        // At a keyframe's time, its pose to the bit; held before the first and after
+        // the last.
+        let turn = Rigid::turn(DVec3::Z, 90f64.to_radians(), DVec3::X, DVec3::ZERO);
+        assert_eq!(m.steps[3].poses["hinge"], turn);
+        assert_eq!(m.steps[4].poses["hinge"], turn);
+        assert_eq!(m.steps[5].poses["hinge"], turn);
+        assert_eq!(m.steps[0].poses["hinge"], m.steps[1].poses["hinge"]);
+        assert_eq!(m.steps[0].poses["cart"], Rigid::IDENTITY);
+        assert_eq!(m.steps[2].poses["cart"], Rigid::IDENTITY);
+        assert!((at(3, "cart", [0.0; 3]) - DVec3::new(2.0, 0.0, 0.0)).length() < 1e-12);
+        assert!((at(4, "cart", [0.0; 3]) - DVec3::new(3.0, 0.0, 0.0)).length() < 1e-12);
+        assert_eq!(
+            m.steps[5].poses["cart"].translation,
+            DVec3::new(4.0, 0.0, 0.0)
+        );
+        // A group held between two equal keyframes keeps its pose to the bit.
+        let m = parse(
+            r#"{"keyframes": [
+                {"time": 0, "groups": {"g": {"rotate": {"axis": [1, 2, 3], "degrees": 37}}}},
+                {"time": 1, "groups": {"g": {"rotate": {"axis": [1, 2, 3], "degrees": 37}}}}],
+              "times": [0, 0.3, 0.7, 1]}"#,
+        )
+        .unwrap();
+        assert!(m
+            .steps
+            .iter()
+            .all(|s| s.poses["g"] == m.steps[0].poses["g"]));
+    }
+
+    #[test]
+    fn bad_keyframes_are_refused_by_place() {
+        for (text, says) in [
+            (r#"{"keyframes": [{"time": 0}]}"#, "need \"times\""),
+            (r#"{"times": [0]}"#, "need \"keyframes\""),
+            (
+                r#"{"steps": [{}], "keyframes": [{"time": 0}], "times": [0]}"#,
+                "not both",
+            ),
+            (r#"{"keyframes": [], "times": [0]}"#, "is empty"),
+            (r#"{"keyframes": [{"time": 0}], "times": []}"#, "no steps"),
+            (
+                r#"{"keyframes": [{"time": 1}, {"time": 1}], "times": [0]}"#,
+                "keyframe 1: time 1",
+            ),
+            (
+                r#"{"keyframes": [{"time": 0, "groups": {"g": {"matrix": [[2, 0, 0], [0, 1, 0], [0, 0, 1]]}}}], "times": [0]}"#,
+                "keyframe 0 (time 0), group \"g\"",
+            ),
+            (
+                r#"{"keyframes": [{"time": 0, "groups": {"g": {}}},
+                    {"time": 1, "groups": {"g": {"rotate": {"axis": [0, 1, 0], "degrees": 180}}}}], "times": [0]}"#,
+                "group \"g\" turns 180.00° between times 0 and 1",
+            ),
+        ] {
+            let e = parse(text).unwrap_err().to_string();
+            assert!(e.contains(says), "{text}: {e}");
+        }
     }
 }

@@ -562,6 +562,7 @@ fn motion_target() -> Target {
                 .to_json(Some("seed"))
                 .into_bytes(),
             MOTION_SEED.as_bytes().to_vec(),
+            KEYFRAME_SEED.as_bytes().to_vec(),
         ],
         tokens: tokens(&[
             "{",
@@ -579,6 +580,10 @@ fn motion_target() -> Target {
             "\"bus\"",
             "\"array +x\"",
             "\"steps\": []",
+            "\"keyframes\"",
+            "\"times\"",
+            "\"time\": 1e308",
+            "\"times\": [1e308, -1e308, 0]",
         ]),
         run: |b| {
             // Parsed, checked against the satellite, and each step's scene made (a
@@ -600,6 +605,9 @@ fn motion_target() -> Target {
         },
     }
 }
+
+const KEYFRAME_SEED: &str = r#"{"keyframes": [{"time": 0, "groups": {"array +x": {"rotate": {"axis": [1, 0, 0], "degrees": 0}, "about": [0, 0, 0]}}},
+ {"time": 2, "groups": {"array +x": {"rotate": {"axis": [1, 0, 0], "degrees": 170}}, "antenna": {"translate": [0, 0, 0.2]}}}], "times": [-1, 0, 0.5, 1, 2, 3]}"#;
 
 const MOTION_SEED: &str = r#"{"steps": [{"name": "a", "groups": {"array +x": {"rotate": {"axis": [1, 0, 0], "degrees": 30}, "about": [0, 0, 0]}}},
  {"groups": {"array -x": {"matrix": [[1, 0, 0], [0, 0, -1], [0, 1, 0]], "translate": [0, 0, 0.1]}, "antenna": {"translate": [0, 0, 0.2]}}}]}"#;
