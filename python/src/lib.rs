@@ -15,8 +15,8 @@ use rad_pipeline::viewfactors::{
 };
 use rad_pipeline::{
     pick_method, reflectance_of, settle_method, CasterKind, Enclosure, Hemisphere,
-    HemisphereConfig, LoadConfig, MethodChoice, Motion, PickedMethod, SceneFile, SolveRequest,
-    Solver, ViewFactorRequest,
+    HemisphereConfig, LoadConfig, MethodChoice, PickedMethod, SceneFile, SolveRequest, Solver,
+    ViewFactorRequest,
 };
 use std::path::PathBuf;
 
@@ -263,7 +263,7 @@ impl Scene {
         let made = py.detach(|| {
             let (_, desc) = SceneFile::load_keeping(&self.file.path, &self.config, true)?;
             let desc = desc.expect("kept when asked");
-            let motion = Motion::read(&motion).map_err(rad_pipeline::Error::from)?;
+            let motion = rad_pipeline::read_motion(&motion).map_err(rad_pipeline::Error::from)?;
             let mut steps = Vec::new();
             view_factors_over_motion(&desc, scene, &motion, &hemi, &opts, &|_, _| {}, &mut |s| {
                 steps.push(s.vf);

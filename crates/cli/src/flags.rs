@@ -153,7 +153,7 @@ pub struct ViewfactorsArgs {
     /// --motion, a folder (made if missing) that gets one file a step.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// A motion file (JSON; see docs/formats.md): named groups moved rigidly through
+    /// A motion file (JSON, or a glTF file whose node animations move its meshes; see docs/formats.md): named groups moved rigidly through
     /// steps. Writes one matrix a step into --out, step_0000.json and on (the format's
     /// extension), each when made; a step casts again only the cells that what moved
     /// can change, and gives the factors a whole run of that step gives, to the bit.
@@ -210,7 +210,7 @@ pub struct SolveArgs {
     /// if missing) that gets one solution file a step.
     #[arg(long)]
     pub out: PathBuf,
-    /// A motion file (JSON; see docs/formats.md): named groups moved rigidly through
+    /// A motion file (JSON, or a glTF file whose node animations move its meshes; see docs/formats.md): named groups moved rigidly through
     /// steps. Writes one solution a step into --out, step_0000.json and on, each when
     /// made; a step's rows are exact and cast again only the cells that what moved can
     /// change (the rows a whole run of that step makes, to the bit), stored, and
@@ -235,7 +235,7 @@ pub struct ExportArgs {
     /// percentile of the patches' luminance maps to 0.8.
     #[arg(long, allow_negative_numbers = true, value_name = "EV")]
     pub exposure: Option<f64>,
-    /// A motion file (JSON; see docs/formats.md): one binary glTF a step of the scene
+    /// A motion file (JSON, or a glTF file whose node animations move its meshes; see docs/formats.md): one binary glTF a step of the scene
     /// moved as `solve --motion` moved it. --solution is then the folder `solve
     /// --motion` wrote, --out a folder that gets step_0000.glb and on, all at the first
     /// step's exposure.
@@ -288,7 +288,7 @@ pub struct RenderArgs {
     /// PNG exposure (multiplier before tone mapping); default: the 95th percentile of lit pixels maps to 0.8.
     #[arg(long)]
     pub exposure: Option<f32>,
-    /// A motion file (JSON; see docs/formats.md): one image a step of the scene moved
+    /// A motion file (JSON, or a glTF file whose node animations move its meshes; see docs/formats.md): one image a step of the scene moved
     /// as `solve --motion` moved it. --solution is then the folder `solve --motion`
     /// wrote, --out (and --png) folders that get step_0000.exr (.png) and on; the
     /// camera stays, and the PNGs share the first step's exposure.

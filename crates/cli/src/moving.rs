@@ -7,7 +7,7 @@ use crate::report::Report;
 use indicatif::ProgressBar;
 use rad_pipeline::share::Peers;
 use rad_pipeline::viewfactors::MOTION_KEEP_BYTES;
-use rad_pipeline::{Hemisphere, Motion, RecastStats, SceneDesc, SceneFile};
+use rad_pipeline::{read_motion, Hemisphere, Motion, RecastStats, SceneDesc, SceneFile};
 use std::path::{Path, PathBuf};
 
 /// What a step of a motion cast again, for its line on standard error.
@@ -54,7 +54,7 @@ pub(crate) fn motion_folder<'p>(
             dir.display()
         )));
     }
-    let motion = Motion::read(path).map_err(rad_pipeline::Error::from)?;
+    let motion = read_motion(path).map_err(rad_pipeline::Error::from)?;
     motion.check(desc).map_err(rad_pipeline::Error::from)?;
     std::fs::create_dir_all(dir).map_err(|source| rad_pipeline::Error::Io {
         action: "create",
@@ -101,7 +101,7 @@ impl Steps {
         }
         let (scene, desc) = ctx.load_keeping(scene, true)?;
         let desc = desc.expect("kept as asked");
-        let motion = Motion::read(motion).map_err(rad_pipeline::Error::from)?;
+        let motion = read_motion(motion).map_err(rad_pipeline::Error::from)?;
         motion.check(&desc).map_err(rad_pipeline::Error::from)?;
         let unit = motion.unit(&desc);
         Ok(Steps {

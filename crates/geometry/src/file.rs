@@ -11,7 +11,9 @@ mod mesh;
 mod obj;
 mod vs3;
 
-pub use self::gltf::{gltf_from_bytes, load_gltf, MAX_GLTF_REFLECTANCE};
+pub use self::gltf::{
+    gltf_from_bytes, gltf_motion, gltf_motion_from_bytes, load_gltf, MAX_GLTF_REFLECTANCE,
+};
 pub use json::{scene_desc_from_json, scene_desc_to_json, scene_desc_to_json_indexed};
 pub use material_map::{apply_material_map, apply_material_text};
 pub use mesh::{
@@ -26,6 +28,19 @@ use crate::scene::{Scene, SceneDesc};
 use crate::triangulate::{triangulate, Triangulation};
 use rad_core::Rgb;
 use std::path::{Path, PathBuf};
+
+/// A motion file: a glTF file's node animations (`.gltf`, `.glb`: [`gltf_motion`]), else
+/// the JSON motion format ([`crate::Motion::read`]).
+pub fn read_motion(path: &Path) -> Result<crate::Motion, Error> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("gltf" | "glb") => gltf_motion(path),
+        _ => crate::Motion::read(path),
+    }
+}
 
 /// The extensions [`load`] reads.
 pub const SCENE_EXTENSIONS: &[&str] = &["json", "obj", "vs3", "ply", "stl", "gltf", "glb"];

@@ -119,7 +119,8 @@ struct FileTurn {
 }
 
 impl Motion {
-    /// Reads a motion file.
+    /// Reads a motion file (JSON; [`crate::file::read_motion`] reads glTF animations
+    /// too).
     pub fn read(path: &Path) -> Result<Motion, Error> {
         let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
             path: path.to_path_buf(),

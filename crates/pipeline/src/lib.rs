@@ -44,7 +44,7 @@ pub use parse::{
 };
 pub use rad_core::Rgb;
 pub use rad_estimator::{EstimateStats, Mode};
-pub use rad_geometry::file::{LoadConfig, SCENE_EXTENSIONS};
+pub use rad_geometry::file::{read_motion, LoadConfig, SCENE_EXTENSIONS};
 pub use rad_geometry::{Camera, Motion, SceneDesc, Triangulation};
 pub use rad_hemisphere::{Hemisphere, HemisphereConfig, RecastStats, Row};
 pub use rad_render::{RenderConfig, Shading, View};

@@ -9,8 +9,8 @@
 
 use glam::{DVec3, Vec3};
 use rad_geometry::file::{
-    apply_material_text, gltf_from_bytes, obj_from_bytes, ply_from_bytes, scene_desc_from_json,
-    scene_desc_to_json, stl_from_bytes, vs3_from_text,
+    apply_material_text, gltf_from_bytes, gltf_motion_from_bytes, obj_from_bytes, ply_from_bytes,
+    scene_desc_from_json, scene_desc_to_json, stl_from_bytes, vs3_from_text,
 };
 use rad_geometry::{scenes, triangulate, Scene, SceneDesc};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -367,6 +367,15 @@ fn gltf_seed(glb: bool) -> Vec<u8> {
     for i in [0u16, 1, 2, 0, 2, 3] {
         bin.extend(i.to_le_bytes());
     }
+    // An animation: times (60), node 2's rotations (68), node 0's translations (100).
+    for c in [
+        0f32, 1., 0., 0., 0., 1., 0.3826834, 0., 0., 0.9238795, 1., 0., 0., 1., 0.5, 0.,
+    ] {
+        bin.extend(c.to_le_bytes());
+    }
+    for c in [0f32, 0., 0.] {
+        bin.extend(c.to_le_bytes());
+    }
     let buffer = if glb {
         format!(r#"{{"byteLength": {}}}"#, bin.len())
     } else {
@@ -396,8 +405,11 @@ fn gltf_seed(glb: bool) -> Vec<u8> {
 "meshes": [{{"name": "quad", "primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1, "material": 0}}, {{"attributes": {{"POSITION": 0}}, "mode": 5}}]}}],
 "materials": [{{"name": "m", "pbrMetallicRoughness": {{"baseColorFactor": [0.5, 0.5, 0.5, 1]}}, "emissiveFactor": [1, 1, 1], "extensions": {{"KHR_materials_emissive_strength": {{"emissiveStrength": 4}}}}}}],
 "buffers": [{buffer}],
-"bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 48}}, {{"buffer": 0, "byteOffset": 48, "byteLength": 12}}],
-"accessors": [{{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}}, {{"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"}}]}}"#
+"bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 48}}, {{"buffer": 0, "byteOffset": 48, "byteLength": 12}}, {{"buffer": 0, "byteOffset": 60, "byteLength": 8}}, {{"buffer": 0, "byteOffset": 68, "byteLength": 32}}, {{"buffer": 0, "byteOffset": 100, "byteLength": 24}}],
+"accessors": [{{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}}, {{"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"}},
+  {{"bufferView": 2, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0], "max": [1]}}, {{"bufferView": 3, "componentType": 5126, "count": 2, "type": "VEC4"}}, {{"bufferView": 4, "componentType": 5126, "count": 2, "type": "VEC3"}}],
+"animations": [{{"channels": [{{"sampler": 0, "target": {{"node": 2, "path": "rotation"}}}}, {{"sampler": 1, "target": {{"node": 0, "path": "translation"}}}}],
+  "samplers": [{{"input": 2, "output": 3}}, {{"input": 2, "output": 4, "interpolation": "STEP"}}]}}]}}"#
     );
     if !glb {
         return json.into_bytes();
@@ -513,12 +525,14 @@ pub fn targets() -> Vec<Target> {
             name: "gltf",
             ext: "gltf",
             seeds: vec![gltf_seed(false)],
-            tokens: tokens(&["{", "}", "[", "]", "\"", ":", "\"mode\": 6", "\"children\": [0]", "\"sparse\": {}", "\"byteStride\": 4", "\"componentType\": 5125", "\"uri\": \"x.bin\"", "\"matrix\": [1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,0]"]),
+            tokens: tokens(&["{", "}", "[", "]", "\"", ":", "\"mode\": 6", "\"children\": [0]", "\"sparse\": {}", "\"byteStride\": 4", "\"componentType\": 5125", "\"uri\": \"x.bin\"", "\"matrix\": [1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,0]", "\"interpolation\": \"CUBICSPLINE\"", "\"path\": \"scale\"", "\"path\": \"weights\"", "\"normalized\": true, \"componentType\": 5122"]),
             run: |b| {
                 let mut notes = Vec::new();
                 if let Ok(desc) = gltf_from_bytes(Path::new(FUZZ_PATH), b, 0.3, None, &mut notes) {
                     validate(desc);
                 }
+                // (Its animations as a motion: parsed, never a panic.)
+                let _ = gltf_motion_from_bytes(Path::new(FUZZ_PATH), b);
             },
         },
         Target {
@@ -531,6 +545,8 @@ pub fn targets() -> Vec<Target> {
                 if let Ok(desc) = gltf_from_bytes(Path::new(FUZZ_PATH), b, 0.3, None, &mut notes) {
                     validate(desc);
                 }
+                // (Its animations as a motion: parsed, never a panic.)
+                let _ = gltf_motion_from_bytes(Path::new(FUZZ_PATH), b);
             },
         },
         Target {

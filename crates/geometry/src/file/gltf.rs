@@ -18,6 +18,9 @@ pub const MAX_GLTF_REFLECTANCE: f64 = 0.99;
 /// Deepest node hierarchy followed (a cycle is refused before it).
 const MAX_NODE_DEPTH: usize = 256;
 
+mod motion;
+pub use motion::{gltf_motion, gltf_motion_from_bytes};
+
 fn err(path: &Path, message: impl Into<String>) -> Error {
     Error::Mesh {
         path: path.to_path_buf(),
@@ -94,15 +97,7 @@ pub fn gltf_from_bytes(
     stack.reverse();
     let mut visited = vec![false; doc.nodes().len()];
     while let Some((node, parent, depth)) = stack.pop() {
-        if std::mem::replace(&mut visited[node.index()], true) {
-            return Err(err(
-                path,
-                format!(
-                    "node {} is reached twice (nodes must form trees)",
-                    node.index()
-                ),
-            ));
-        }
+        first_visit(path, &mut visited, node.index())?;
         if depth > MAX_NODE_DEPTH {
             return Err(err(
                 path,
@@ -139,6 +134,18 @@ pub fn gltf_from_bytes(
         return Err(err(path, "its scene has no triangles"));
     }
     Ok(desc)
+}
+
+/// Marks node `index` visited; refuses a node reached twice (nodes must form trees,
+/// and a cycle would never end).
+fn first_visit(path: &Path, visited: &mut [bool], index: usize) -> Result<(), Error> {
+    if std::mem::replace(&mut visited[index], true) {
+        return Err(err(
+            path,
+            format!("node {index} is reached twice (nodes must form trees)"),
+        ));
+    }
+    Ok(())
 }
 
 /// The glTF document of `bytes` (JSON or GLB), validated by the `gltf` crate after
@@ -248,9 +255,16 @@ fn primitive_triangles(
     let positions_acc = prim
         .get(&gltf::Semantic::Positions)
         .ok_or_else(|| err(path, format!("{place} has no POSITION")))?;
-    check_accessor(path, &positions_acc, buffers, place, "POSITION", true)?;
+    check_accessor(
+        path,
+        &positions_acc,
+        buffers,
+        place,
+        "POSITION",
+        Want::Positions,
+    )?;
     if let Some(acc) = prim.indices() {
-        check_accessor(path, &acc, buffers, place, "indices", false)?;
+        check_accessor(path, &acc, buffers, place, "indices", Want::Indices)?;
     }
     let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
     let expected = positions_acc.count();
@@ -318,17 +332,30 @@ fn primitive_triangles(
     Ok((positions, triangles))
 }
 
-/// Checks that an accessor can be read as what it must be (POSITION: float VEC3, not
-/// normalised; indices: unsigned byte, short or int scalars), and that every element
-/// lies inside its buffer view and the view inside its buffer (the `gltf` crate's
-/// reader trusts both).
+/// What an accessor must hold.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Want {
+    /// Float VEC3, not normalised (POSITION, and translations and scales of animations).
+    Positions,
+    /// Unsigned byte, short or int scalars.
+    Indices,
+    /// Float scalars, not normalised (an animation's times).
+    Times,
+    /// VEC4: float, or normalised signed or unsigned byte or short (an animation's
+    /// rotations).
+    Rotations,
+}
+
+/// Checks that an accessor can be read as what it must be ([`Want`]), and that every
+/// element lies inside its buffer view and the view inside its buffer (the `gltf`
+/// crate's reader trusts both).
 fn check_accessor(
     path: &Path,
     acc: &gltf::Accessor,
     buffers: &[Vec<u8>],
     place: &str,
     what: &str,
-    positions: bool,
+    want: Want,
 ) -> Result<(), Error> {
     use gltf::accessor::{DataType, Dimensions};
     let fail = |m: String| {
@@ -341,10 +368,21 @@ fn check_accessor(
         return fail("sparse accessors are not supported".into());
     }
     let (dt, dims) = (acc.data_type(), acc.dimensions());
-    let ok = if positions {
-        dt == DataType::F32 && dims == Dimensions::Vec3 && !acc.normalized()
-    } else {
-        matches!(dt, DataType::U8 | DataType::U16 | DataType::U32) && dims == Dimensions::Scalar
+    let ok = match want {
+        Want::Positions => dt == DataType::F32 && dims == Dimensions::Vec3 && !acc.normalized(),
+        Want::Indices => {
+            matches!(dt, DataType::U8 | DataType::U16 | DataType::U32) && dims == Dimensions::Scalar
+        }
+        Want::Times => dt == DataType::F32 && dims == Dimensions::Scalar && !acc.normalized(),
+        Want::Rotations => {
+            dims == Dimensions::Vec4
+                && (dt == DataType::F32
+                    || (acc.normalized()
+                        && matches!(
+                            dt,
+                            DataType::I8 | DataType::U8 | DataType::I16 | DataType::U16
+                        )))
+        }
     };
     if !ok {
         return fail(format!(

@@ -1,5 +1,6 @@
 //! Integration tests of rad-geometry.
 
+mod animation;
 mod errors;
 mod facets;
 mod frames;
