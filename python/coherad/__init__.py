@@ -121,9 +121,10 @@ class Scene:
         the closed-form factors' quadrature tolerance (default 1e-10).
         Up to 10,000 surfaces (a dense matrix); more through `coherad viewfactors
         --format bin`. With `with_report`, also (areas, a dict of the errors before and
-        after the rule). With `motion` (a motion file: named groups moved rigidly through
-        steps, as `coherad viewfactors --motion`), a list of those, one a step, each step
-        casting again only what the motion can change."""
+        after the rule). With `motion` (a motion file, JSON or a glTF file's animations:
+        named groups moved rigidly through steps, as `coherad viewfactors --motion`), a
+        list of those, one a step, each step casting again only what the motion can
+        change."""
         made = self._s.view_factors_raw(
             by, origins, enclosure, _resolution(resolution), caster, script_f, method,
             tolerance, None if motion is None else str(motion))
@@ -139,17 +140,23 @@ class Scene:
         return steps if motion is not None else steps[0]
 
     def solve(self, resolution=(180, 720), method="auto", caster=None, solver="gauss-seidel",
-              tolerance=None, reciprocal=True, with_report=False):
+              tolerance=None, reciprocal=True, with_report=False, motion=None):
         """Radiosity B of every patch (numpy (n, 3)), as `coherad solve` computes it:
         rows at `resolution` by `method` ("auto", as `coherad solve`: estimated on a
         mesh of 20,000 patches or more mostly in flat walls, else exact; "exact",
         "estimated", "estimated/faithful"), made reciprocal (unless `reciprocal=False`), solved by
         "gauss-seidel", "progressive" or "jacobi" to `tolerance`. With `with_report`, also a dict
-        (converged, iterations, residual, relative_imbalance, storage)."""
-        raw, report = self._s.solve_raw(_resolution(resolution), method, caster, solver,
-                                        tolerance, reciprocal)
-        b = _array(raw, np.float64, (self.n_patches, 3))
-        return (b, report) if with_report else b
+        (converged, iterations, residual, relative_imbalance, storage). With `motion` (a
+        motion file, JSON or a glTF file's animations, as `coherad solve --motion`), a list
+        of those, one a step: exact rows, each step's casting again only what the motion
+        can change, Gauss-Seidel starting from the step before's radiosities."""
+        made = self._s.solve_raw(_resolution(resolution), method, caster, solver,
+                                 tolerance, reciprocal, None if motion is None else str(motion))
+        steps = []
+        for raw, report in made:
+            b = _array(raw, np.float64, (self.n_patches, 3))
+            steps.append((b, report) if with_report else b)
+        return steps if motion is not None else steps[0]
 
 
 def load(path, patch_size=None, triangulate=False, reflectance=None, materials=None,

@@ -8,15 +8,15 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
-use rad_pipeline::solve::solve_scene;
+use rad_pipeline::solve::{solve_over_motion, solve_scene, Solved};
 use rad_pipeline::viewfactors::{
     view_factors, view_factors_over_motion, Grouping, ViewFactorConfig, ViewFactorMethod,
     ViewFactors,
 };
 use rad_pipeline::{
     pick_method, reflectance_of, settle_method, CasterKind, Enclosure, Hemisphere,
-    HemisphereConfig, LoadConfig, MethodChoice, PickedMethod, SceneFile, SolveRequest, Solver,
-    ViewFactorRequest,
+    HemisphereConfig, LoadConfig, MethodChoice, PickedMethod, RowMethod, SceneFile, SolveRequest,
+    Solver, ViewFactorRequest,
 };
 use std::path::PathBuf;
 
@@ -277,9 +277,11 @@ impl Scene {
             .collect()
     }
 
-    /// Radiosity of every patch, as `coherad solve` computes it: (f64 × 3 bytes a patch,
-    /// a dict of the solver's report).
-    #[pyo3(signature = (resolution = (180, 720), method = "auto", caster = None, solver = "gauss-seidel", tolerance = None, reciprocal = true))]
+    /// Radiosity of every patch, as `coherad solve` computes it: a list of (f64 × 3 bytes
+    /// a patch, a dict of the solver's report), one solve, or one a step of `motion` (as
+    /// `coherad solve --motion`: exact rows, each step's from the step before's, and
+    /// Gauss-Seidel from the step before's radiosities).
+    #[pyo3(signature = (resolution = (180, 720), method = "auto", caster = None, solver = "gauss-seidel", tolerance = None, reciprocal = true, motion = None))]
     #[allow(clippy::too_many_arguments)]
     fn solve_raw(
         &self,
@@ -290,7 +292,8 @@ impl Scene {
         solver: &str,
         tolerance: Option<f64>,
         reciprocal: bool,
-    ) -> PyResult<(Py<PyBytes>, Py<PyDict>)> {
+        motion: Option<String>,
+    ) -> PyResult<Vec<(Py<PyBytes>, Py<PyDict>)>> {
         let picked = row_method(&self.file, method, caster)?;
         let hemi = hemisphere(resolution)?;
         let solver = match solver {
@@ -314,21 +317,60 @@ impl Scene {
         };
         let opts = request.config().map_err(fail)?;
         let file = &self.file;
+        if let Some(motion) = motion {
+            let caster = match picked.method {
+                RowMethod::Exact { caster } => caster,
+                RowMethod::Estimated { centres, .. } if picked.auto => centres,
+                RowMethod::Estimated { .. } => {
+                    return Err(fail(
+                        "a motion makes exact rows (each step's from the step before's hemispheres): use method=\"exact\" or \"auto\"",
+                    ))
+                }
+            };
+            let made = py.detach(|| {
+                let (_, desc) = SceneFile::load_keeping(&file.path, &self.config, true)?;
+                let desc = desc.expect("kept when asked");
+                let motion = rad_pipeline::read_motion(motion.as_ref())
+                    .map_err(rad_pipeline::Error::from)?;
+                let mut steps = Vec::new();
+                let both = (file, &desc);
+                solve_over_motion(both, &motion, &hemi, caster, &opts, &|_, _| {}, &mut |s| {
+                    steps.push(s.solved);
+                    Ok(())
+                })?;
+                Ok::<_, rad_pipeline::Error>(steps)
+            });
+            return made
+                .map_err(fail)?
+                .iter()
+                .map(|s| solved_for_python(py, s))
+                .collect();
+        }
         // (Auto's estimated rows give way to exact ones where only matrix-free solving
         // fits, as `coherad solve` does.)
         let (method, _) = settle_method(file, &hemi, &picked, &opts, 1).map_err(fail)?;
-        let (solution, solved, _) =
-            detached(py, || solve_scene(file, &hemi, method, &opts, &|_| {}))?;
-        let flat: Vec<f64> = solution.radiosity.iter().flatten().copied().collect();
-        let report = PyDict::new(py);
-        let r = &solved.solution.report;
-        report.set_item("converged", r.converged)?;
-        report.set_item("iterations", r.iterations)?;
-        report.set_item("residual", r.residual)?;
-        report.set_item("relative_imbalance", solved.balance.relative_imbalance)?;
-        report.set_item("storage", solved.matrix.storage.to_string())?;
-        Ok((bytes_of(py, &flat, f64::to_le_bytes), report.unbind()))
+        let (_, solved, _) = detached(py, || solve_scene(file, &hemi, method, &opts, &|_| {}))?;
+        Ok(vec![solved_for_python(py, &solved)?])
     }
+}
+
+/// A solve for Python: the radiosities as f64 bytes, and a dict of its report.
+fn solved_for_python(py: Python<'_>, solved: &Solved) -> PyResult<(Py<PyBytes>, Py<PyDict>)> {
+    let flat: Vec<f64> = solved
+        .solution
+        .radiosity
+        .iter()
+        .flatten()
+        .copied()
+        .collect();
+    let report = PyDict::new(py);
+    let r = &solved.solution.report;
+    report.set_item("converged", r.converged)?;
+    report.set_item("iterations", r.iterations)?;
+    report.set_item("residual", r.residual)?;
+    report.set_item("relative_imbalance", solved.balance.relative_imbalance)?;
+    report.set_item("storage", solved.matrix.storage.to_string())?;
+    Ok((bytes_of(py, &flat, f64::to_le_bytes), report.unbind()))
 }
 
 /// One matrix for Python: (names, the dense matrix as f64 bytes row by row, areas, a

@@ -117,6 +117,27 @@ def test_view_factors_over_a_motion_are_the_binarys(tmp_path):
         coherad.load(sat).view_factors(motion=motion)
 
 
+def test_solves_over_a_motion_are_the_binarys(tmp_path):
+    room = ROOT / "bench-scenes" / "room_cart.json"
+    motion = tmp_path / "m.json"
+    motion.write_text(json.dumps({"keyframes": [
+        {"time": 0, "groups": {"cart": {}}},
+        {"time": 2, "groups": {"cart": {"translate": [0.5, 0, 0]}}}], "times": [0, 1, 2]}))
+    steps = coherad.load(room).solve(resolution=(20, 80), motion=motion, with_report=True)
+    assert len(steps) == 3
+    out = tmp_path / "steps"
+    cli("solve", room, "--resolution", "20x80", "--motion", motion, "--out", out)
+    for k, (b, report) in enumerate(steps):
+        assert report["converged"]
+        solved = json.loads((out / f"step_{k:04}.json").read_text())
+        assert np.array_equal(b, np.array(solved["radiosity"]))
+    # (Warm from the step before: fewer sweeps than the first step's.)
+    assert steps[1][1]["iterations"] < steps[0][1]["iterations"]
+    assert not np.array_equal(steps[0][0], steps[2][0])
+    with pytest.raises(coherad.CoheradError, match="exact rows"):
+        coherad.load(room).solve(resolution=(8, 32), method="estimated", motion=motion)
+
+
 def test_errors_are_exceptions_with_the_clis_messages(tmp_path):
     with pytest.raises(coherad.CoheradError, match="no/such/file.json"):
         coherad.load("/no/such/file.json")
