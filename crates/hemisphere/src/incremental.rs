@@ -318,9 +318,9 @@ pub fn moved_area_rows_from<C: Caster, R: Caster>(
     }
     kept.by_patch.resize(n_patches, None);
     kept.shape = Some(shape);
-    let bounds: Vec<Bound> = match moved {
-        Some(m) => moved_bounds(scene, m),
-        None => Vec::new(),
+    let step = match moved {
+        Some(m) => Moved::new(scene, hemi, m),
+        None => Moved::default(),
     };
     let done = std::sync::atomic::AtomicUsize::new(0);
     let old = &kept.by_patch;
@@ -354,7 +354,7 @@ pub fn moved_area_rows_from<C: Caster, R: Caster>(
                     let plans: Vec<Plan> = viewpoints
                         .iter()
                         .zip(k.runs.iter())
-                        .map(|(&(at, _), runs)| plan(scene, hemi, at, m, &bounds, runs))
+                        .map(|(&(at, _), runs)| plan(scene, hemi, at, m, &step, runs))
                         .collect();
                     let total: usize = plans.iter().map(Plan::cells).sum();
                     let cost: f64 = plans
@@ -616,14 +616,7 @@ impl<R: Caster> Again<'_, R> {
         }
         let scene = self.scene;
         let (polygons, patches) = (scene.polygons(), scene.patches());
-        let frame = polygons[at.polygon as usize].frame();
-        let local = self.hemi.directions();
-        b.dirs.clear();
-        b.dirs.extend(
-            plan.near
-                .iter()
-                .map(|&c| frame.world_from_local(local[c as usize])),
-        );
+        self.directions(at, &plan.near, &mut b.dirs);
         let hits = &mut b.near;
         hits.begin_rays(&b.dirs);
         // Each cell's kept polygon, over runs of cells that kept the same one.
@@ -671,6 +664,18 @@ impl<R: Caster> Again<'_, R> {
         item_ids(polygons, &b.hits)
     }
 
+    /// The world directions of `cells` of the hemisphere at `at`, into `dirs`.
+    fn directions(&self, at: Viewpoint, cells: &[u32], dirs: &mut Vec<glam::Vec3>) {
+        let frame = self.scene.polygons()[at.polygon as usize].frame();
+        let local = self.hemi.directions();
+        dirs.clear();
+        dirs.extend(
+            cells
+                .iter()
+                .map(|&c| frame.world_from_local(local[c as usize])),
+        );
+    }
+
     /// The ids of `cells` cast from `at` through the rays, as [`Hemisphere::cast_at`]
     /// makes each cell.
     fn cast(
@@ -683,15 +688,8 @@ impl<R: Caster> Again<'_, R> {
         if cells.is_empty() {
             return Vec::new();
         }
-        let frame = self.scene.polygons()[at.polygon as usize].frame();
         let polygons = self.scene.polygons();
-        let local = self.hemi.directions();
-        b.dirs.clear();
-        b.dirs.extend(
-            cells
-                .iter()
-                .map(|&c| frame.world_from_local(local[c as usize])),
-        );
+        self.directions(at, cells, &mut b.dirs);
         self.rays.closest_hits(
             self.scene,
             at.point,
@@ -771,6 +769,33 @@ fn moved_bounds(scene: &Scene, moved: &[bool]) -> Vec<Bound> {
         .collect()
 }
 
+/// What a step's plans share: the moved polygons' bounds, the rings' (sin θ, cos θ)
+/// (none if nothing moved), and whether anything moved.
+#[derive(Default)]
+struct Moved {
+    bounds: Vec<Bound>,
+    rings: Vec<(f64, f64)>,
+    any: bool,
+}
+
+impl Moved {
+    fn new(scene: &Scene, hemi: &Hemisphere, moved: &[bool]) -> Moved {
+        let bounds = moved_bounds(scene, moved);
+        let rings = if bounds.is_empty() {
+            Vec::new()
+        } else {
+            (0..hemi.n_theta())
+                .map(|r| hemi.theta(r).sin_cos())
+                .collect()
+        };
+        Moved {
+            bounds,
+            rings,
+            any: moved.iter().any(|&m| m),
+        }
+    }
+}
+
 /// What a kept buffer casts again at one viewpoint.
 #[derive(Clone, Debug, Default)]
 struct Plan {
@@ -801,12 +826,12 @@ fn plan(
     hemi: &Hemisphere,
     at: Viewpoint,
     moved: &[bool],
-    bounds: &[Bound],
+    step: &Moved,
     runs: &Runs,
 ) -> Plan {
     let patches = scene.patches();
     let n_cells = hemi.n_cells();
-    let (n_theta, n_phi) = (hemi.n_theta(), hemi.n_phi());
+    let n_phi = hemi.n_phi();
     let words = n_cells.div_ceil(64);
     // Each bound's cone of directions, in the patch's frame: for each ring, the
     // interval of azimuths within the cone (padded by a cell either side).
@@ -819,12 +844,7 @@ fn plan(
     let shift = hemi.config().phi_shift;
     let mut in_cone = vec![0u64; words];
     let mut cones = Vec::new();
-    let rings: Vec<(f64, f64)> = if bounds.is_empty() {
-        Vec::new()
-    } else {
-        (0..n_theta).map(|r| hemi.theta(r).sin_cos()).collect()
-    };
-    for b in bounds {
+    for b in &step.bounds {
         let v = b.centre - o;
         let d = v.length();
         let mut spans: Vec<(u32, u32)> = Vec::new();
@@ -835,7 +855,7 @@ fn plan(
             let cos_half = (1.0 - (b.radius / d).powi(2)).max(0.0).sqrt() - SLACK;
             let rho = (ax * ax + ay * ay).sqrt();
             let phi_a = ay.atan2(ax);
-            for (ring, &(st, ct)) in rings.iter().enumerate() {
+            for (ring, &(st, ct)) in step.rings.iter().enumerate() {
                 let base = (ring * n_phi) as u32;
                 // d·a = sinθ ρ cos(φ − φa) + cosθ az ≥ cos(half)
                 let need = cos_half - ct * az;
@@ -876,7 +896,7 @@ fn plan(
     }
     // One walk: a run that met a moved polygon (or a back) is cast again whole, ray by
     // ray; of the others, the cells in a cone are tested.
-    let any = moved.iter().any(|&m| m);
+    let any = step.any;
     let mut plan = Plan {
         cones,
         ..Plan::default()
