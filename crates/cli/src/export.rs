@@ -3,7 +3,7 @@
 use crate::context::Ctx;
 use crate::exit::{Error, Outcome};
 use crate::flags::ExportArgs;
-use crate::moving::{made_folder, solution_folder, Steps};
+use crate::moving::{made_folder, remove_stale, solution_folder, Steps};
 use crate::report::say;
 use rad_pipeline::export::{export, ExportFormat, ExportSummary};
 use rad_pipeline::solve::read_solution;
@@ -62,5 +62,6 @@ fn moving(ctx: &Ctx, args: &ExportArgs, motion: &Path) -> Result<Outcome, Error>
         }
         say!(ctx.report, "step {k}: {}", wrote(&path, &summary));
     }
+    remove_stale(ctx.report, dir, steps.motion.steps.len(), &["glb"])?;
     Ok(Outcome::Done)
 }

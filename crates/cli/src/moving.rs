@@ -3,7 +3,7 @@
 
 use crate::context::Ctx;
 use crate::exit::Error;
-use crate::report::Report;
+use crate::report::{say, Report};
 use indicatif::ProgressBar;
 use rad_pipeline::share::Peers;
 use rad_pipeline::viewfactors::MOTION_KEEP_BYTES;
@@ -128,15 +128,65 @@ impl Steps {
     }
 }
 
-/// `--solution` with `--motion`: the folder `solve --motion` wrote (a file is refused).
+/// `--solution` with `--motion`: the folder `solve --motion` wrote (a file, or no such
+/// folder, is refused).
 pub(crate) fn solution_folder(solution: Option<&Path>) -> Result<Option<&Path>, Error> {
     match solution {
-        Some(p) if p.is_file() => Err(Error::Flags(format!(
-            "--solution {} is a file: with --motion, give the folder `coherad solve --motion` wrote (step_0000.json and on)",
-            p.display()
+        Some(p) if !p.is_dir() => Err(Error::Flags(format!(
+            "--solution {} is {}: with --motion, give the folder `coherad solve --motion` wrote (step_0000.json and on)",
+            p.display(),
+            if p.exists() { "a file" } else { "no folder" }
         ))),
         other => Ok(other),
     }
+}
+
+/// Removes, from `dir`, the step files (`step_NNNN.EXT`, for each of `exts`) numbered
+/// `n_steps` and on: an earlier, longer run's, which would pass for this run's; says how
+/// many.
+pub(crate) fn remove_stale(
+    report: &Report,
+    dir: &Path,
+    n_steps: usize,
+    exts: &[&str],
+) -> Result<(), Error> {
+    let mut removed = 0;
+    let entries = std::fs::read_dir(dir).map_err(|source| rad_pipeline::Error::Io {
+        action: "read",
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(name) = name.to_str() else {
+            continue;
+        };
+        let stale = name
+            .strip_prefix("step_")
+            .and_then(|rest| rest.split_once('.'))
+            .is_some_and(|(k, ext)| {
+                k.len() >= 4
+                    && exts.contains(&ext)
+                    && k.parse::<usize>().is_ok_and(|k| k >= n_steps)
+            });
+        if stale {
+            let path = entry.path();
+            std::fs::remove_file(&path).map_err(|source| rad_pipeline::Error::Io {
+                action: "remove",
+                path,
+                source,
+            })?;
+            removed += 1;
+        }
+    }
+    if removed > 0 {
+        say!(
+            report,
+            "removed {removed} step files of an earlier, longer run from {}",
+            dir.display()
+        );
+    }
+    Ok(())
 }
 
 /// A folder for `--png` with `--motion`: made if missing (a file is refused).

@@ -4,7 +4,7 @@
 use crate::context::Ctx;
 use crate::exit::{Error, Outcome};
 use crate::flags::RenderArgs;
-use crate::moving::{made_folder, solution_folder, Steps};
+use crate::moving::{made_folder, remove_stale, solution_folder, Steps};
 use crate::report::say;
 use rad_pipeline::images::{
     auto_exposure, radiance_of, render_image, render_to_files, write_exr, write_png,
@@ -123,6 +123,11 @@ fn moving(ctx: &Ctx, args: &RenderArgs, motion: &Path) -> Result<Outcome, Error>
             line += &format!(", {} (exposure {x:.4})", path.display());
         }
         say!(ctx.report, "{line}");
+    }
+    let n = steps.motion.steps.len();
+    remove_stale(ctx.report, dir, n, &["exr"])?;
+    if let Some(png) = &args.png {
+        remove_stale(ctx.report, png, n, &["png"])?;
     }
     Ok(Outcome::Done)
 }

@@ -4,12 +4,14 @@
 use crate::context::{emit, hemisphere, Ctx};
 use crate::exit::{Error, Outcome, EXIT_NOT_CONVERGED};
 use crate::flags::{Method, SolveArgs};
-use crate::moving::{motion_folder, recast_note, steps_bar};
+use crate::moving::{motion_folder, recast_note, remove_stale, steps_bar};
 use crate::report::{say, warning, Report};
 use indicatif::ProgressBar;
 use rad_pipeline::output::write_atomic;
 use rad_pipeline::share::Peers;
-use rad_pipeline::solve::{solve_over_motion, solve_scene_shared, SceneSolveConfig, Solved};
+use rad_pipeline::solve::{
+    check_motion_solve, solve_over_motion, solve_scene_shared, SceneSolveConfig, Solved,
+};
 use rad_pipeline::{
     parse_size, pick_method, settle_method, CasterKind, Progress, SceneFile, SolveRequest, Storage,
 };
@@ -108,12 +110,14 @@ fn moving(ctx: &Ctx, args: &SolveArgs, motion: &Path) -> Result<Outcome, Error> 
     let desc = desc.expect("kept as asked");
     let config = request(args)?.config()?;
     let hemi = hemisphere(&args.resolution)?;
-    let (dir, motion) = motion_folder(ctx, Some(&args.out), motion, &desc)?;
-    warn_if_nothing_emits(ctx.report, &scene);
     let caster = args
         .rows
         .caster
         .unwrap_or_else(|| CasterKind::fastest_for(&scene.scene));
+    // (Refused before the folder is made.)
+    check_motion_solve(&scene.scene, &hemi, caster, &config)?;
+    let (dir, motion) = motion_folder(ctx, Some(&args.out), motion, &desc)?;
+    warn_if_nothing_emits(ctx.report, &scene);
     let n = scene.scene.patches().len();
     let bar = steps_bar(ctx.report, &motion, n, &hemi, "exact rows and solves");
     let progress = |k: usize, p: Progress| {
@@ -175,6 +179,7 @@ fn moving(ctx: &Ctx, args: &SolveArgs, motion: &Path) -> Result<Outcome, Error> 
         },
     )?;
     bar.finish_and_clear();
+    remove_stale(ctx.report, dir, motion.steps.len(), &["json"])?;
     Ok(outcome)
 }
 

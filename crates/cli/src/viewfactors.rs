@@ -5,7 +5,7 @@
 use crate::context::{emit, hemisphere, Ctx};
 use crate::exit::{Error, Outcome};
 use crate::flags::{matrix_format, ViewfactorsArgs};
-use crate::moving::{motion_folder, recast_note, steps_bar};
+use crate::moving::{motion_folder, recast_note, remove_stale, steps_bar};
 use crate::report::{say, warning, Report};
 use indicatif::ProgressBar;
 use rad_pipeline::output::write_atomic;
@@ -122,6 +122,7 @@ fn moving(
         },
     )?;
     bar.finish_and_clear();
+    remove_stale(report, dir, motion.steps.len(), &[ext])?;
     Ok(Outcome::Done)
 }
 

@@ -436,12 +436,18 @@ impl Pose {
 
     /// The pose a share `s` (in (0, 1)) of the way to `other`.
     fn towards(&self, other: &Pose, s: f64) -> Pose {
-        let a = DQuat::from_mat3(&self.rotation).normalize();
-        let b = DQuat::from_mat3(&other.rotation).normalize();
-        // (The shorter arc: q and −q are one rotation.)
-        let b = if a.dot(b) < 0.0 { -b } else { b };
+        let rotation = if self.rotation == other.rotation {
+            // (A group that only slides keeps its rotation's bits.)
+            self.rotation
+        } else {
+            let a = DQuat::from_mat3(&self.rotation).normalize();
+            let b = DQuat::from_mat3(&other.rotation).normalize();
+            // (The shorter arc: q and −q are one rotation.)
+            let b = if a.dot(b) < 0.0 { -b } else { b };
+            DMat3::from_quat(a.slerp(b, s).normalize())
+        };
         Pose {
-            rotation: DMat3::from_quat(a.slerp(b, s).normalize()),
+            rotation,
             about: self.about.lerp(other.about, s),
             translate: self.translate.lerp(other.translate, s),
         }

@@ -20,7 +20,7 @@ pub use config::{
     Progress, SceneSolveConfig, Storage, DEFAULT_MEMORY_LIMIT, MATRIX_FREE_BATCH,
     MATRIX_FREE_OVERSHOOT, MATRIX_FREE_TOLERANCE,
 };
-pub use motion::{solve_over_motion, StepSolution};
+pub use motion::{check_motion_solve, solve_over_motion, StepSolution};
 pub use out_of_core::OutOfCoreStats;
 pub use solution::{
     read_solution, surfaces, EnergyJson, MatrixJson, ReciprocityJson, SolutionFile, Solved,

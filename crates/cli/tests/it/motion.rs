@@ -266,6 +266,7 @@ fn a_solve_over_a_motion_writes_a_solution_a_step() {
     for (flags, says) in [
         (&["--method", "estimated"][..], "drop --method estimated"),
         (&["--storage", "matrix-free"][..], "--storage stored"),
+        (&["--memory-limit", "1K"][..], "raise --memory-limit"),
     ] {
         let bad = dir.path().join("bad");
         let mut args = vec![
@@ -370,6 +371,24 @@ fn renders_and_exports_each_step(dir: &Path, room: &str, motion: &Path, out: &Pa
         err.contains("step_0001.json") && err.contains("scene_hash"),
         "{err}"
     );
+    // A --solution folder that is not there: refused before any folder is made.
+    let none = dir.join("none");
+    let run = coherad(&[
+        "render",
+        room,
+        "--motion",
+        m,
+        "--solution",
+        "/no/such/folder",
+        "--out",
+        none.to_str().unwrap(),
+        "--eye",
+        "2.5,1.5,3.9",
+        "--look-at",
+        "2.5,0.5,0",
+    ]);
+    assert!(String::from_utf8_lossy(&run.stderr).contains("is no folder"));
+    assert!(!none.exists());
     // With --motion, --solution names the folder solve wrote, not a file.
     let run = coherad(&[
         "export",
@@ -382,4 +401,29 @@ fn renders_and_exports_each_step(dir: &Path, room: &str, motion: &Path, out: &Pa
         dir.join("g3").to_str().unwrap(),
     ]);
     assert!(String::from_utf8_lossy(&run.stderr).contains("is a file"));
+}
+
+#[test]
+fn a_shorter_run_into_the_same_folder_leaves_no_stale_steps() {
+    let dir = tempfile::tempdir().unwrap();
+    let sat = bench_scene("satellite.json");
+    let motion = dir.path().join("m.json");
+    let out = dir.path().join("steps");
+    for (n, files_after) in [(3, 3), (2, 2)] {
+        std::fs::write(&motion, turning(n)).unwrap();
+        let run = coherad(&[
+            "viewfactors",
+            sat.to_str().unwrap(),
+            "--resolution",
+            "8x32",
+            "--motion",
+            motion.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(run.status.success(), "{err}");
+        assert_eq!(files(&out).len(), files_after, "{:?}", files(&out));
+        assert_eq!(err.contains("removed 1 step files"), n == 2, "{err}");
+    }
 }

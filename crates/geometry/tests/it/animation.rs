@@ -110,6 +110,18 @@ fn a_gltf_animation_moves_its_meshes_with_their_nodes() {
         let (s, c) = degrees.to_radians().sin_cos();
         assert!((p - DVec3::new(0.0, c, s)).length() < 1e-6, "{k}: {p}");
     }
+    // One mesh placed by two nodes that move alike (the lid's node and a child of it):
+    // taken, whatever the rounding of their poses.
+    let twice = text.replace(
+        r#"{"mesh": 2}]"#,
+        r#"{"mesh": 1, "translation": [0.3, 0.7, -0.2], "rotation": [0.1, 0.2, 0.3, 0.927362]}]"#,
+    );
+    assert_ne!(twice, text);
+    let path2 = write(dir.path(), "twice.gltf", twice.as_bytes());
+    let m2 = read_motion(&path2).unwrap();
+    let p = m2.steps[1].poses["lid"].apply(DVec3::new(0.0, 1.0, 0.0));
+    let half = std::f64::consts::FRAC_1_SQRT_2;
+    assert!((p - DVec3::new(0.0, half, half)).length() < 1e-6, "{p}");
     // The scene the file loads has these groups, and each step makes a scene.
     let config = LoadConfig {
         patch_size: Some(0.5),

@@ -7,10 +7,11 @@
 
 use super::config::{SceneSolveConfig, Storage};
 use super::solution::{check_finite, solution_file, surfaces, SolutionFile, Solved};
+use super::storage::choose;
 use super::stored::solve_pairs_from;
 use crate::moving::{step_scene_file, MotionRows, StepRows};
 use crate::{CasterKind, Error, Progress, RowMethod, SceneFile};
-use rad_geometry::{Motion, SceneDesc};
+use rad_geometry::{Motion, Scene, SceneDesc};
 use rad_hemisphere::{Hemisphere, RecastStats};
 use rad_solver::{PairBuilder, Solver};
 use std::time::Instant;
@@ -30,20 +31,16 @@ pub struct StepSolution {
     pub warm: bool,
 }
 
-/// Every step of `motion` over `scene` (loaded from `desc`) solved in order, each
-/// handed to `each` as it is made (so that a caller may write it before the next is
-/// begun). The rows are exact, by `caster` where a patch is cast whole, stored (the
-/// other storages are refused: they make each row anew); Gauss-Seidel starts each step
-/// after the first from the step before's radiosities. `progress(step, p)` follows the
-/// rows of each step.
-pub fn solve_over_motion(
-    (scene, desc): (&SceneFile, &SceneDesc),
-    motion: &Motion,
+/// Refuses what a solve over a motion cannot do: a storage other than stored (the
+/// others make each row anew), progressive refinement on raw rows, and rows that would
+/// not fit `opts.memory_limit` stored (judged, as `coherad solve` judges, from 64 sample
+/// rows of the scene as written; a step also keeps its item buffers, up to
+/// [`crate::viewfactors::MOTION_KEEP_BYTES`]).
+pub fn check_motion_solve(
+    scene: &Scene,
     hemi: &Hemisphere,
     caster: CasterKind,
     opts: &SceneSolveConfig,
-    progress: &(dyn Fn(usize, Progress) + Sync),
-    each: &mut dyn FnMut(StepSolution) -> Result<(), Error>,
 ) -> Result<(), Error> {
     if let Some(s) = opts.storage.filter(|&s| s != Storage::Stored) {
         return Err(Error::Parse {
@@ -61,6 +58,36 @@ pub fn solve_over_motion(
             reason: "cannot converge on raw rows; use Gauss-Seidel, or reciprocal rows".into(),
         });
     }
+    let method = RowMethod::Exact { caster };
+    if choose(scene, hemi, method, opts.memory_limit, None)? != Storage::Stored {
+        return Err(Error::Parse {
+            what: "memory limit",
+            input: format!("{} bytes", opts.memory_limit),
+            reason: "a step's rows, stored, would take more (a motion holds each step's rows \
+                     in memory, and up to 1.5 GiB of item buffers besides); raise \
+                     --memory-limit, or solve fewer patches"
+                .into(),
+        });
+    }
+    Ok(())
+}
+
+/// Every step of `motion` over `scene` (loaded from `desc`) solved in order, each
+/// handed to `each` as it is made (so that a caller may write it before the next is
+/// begun). The rows are exact, by `caster` where a patch is cast whole, stored (the
+/// other storages are refused: they make each row anew); Gauss-Seidel starts each step
+/// after the first from the step before's radiosities. `progress(step, p)` follows the
+/// rows of each step.
+pub fn solve_over_motion(
+    (scene, desc): (&SceneFile, &SceneDesc),
+    motion: &Motion,
+    hemi: &Hemisphere,
+    caster: CasterKind,
+    opts: &SceneSolveConfig,
+    progress: &(dyn Fn(usize, Progress) + Sync),
+    each: &mut dyn FnMut(StepSolution) -> Result<(), Error>,
+) -> Result<(), Error> {
+    check_motion_solve(&scene.scene, hemi, caster, opts)?;
     let mut steps = MotionRows::new(desc, &scene.scene, motion)?;
     let unit = motion.unit(desc);
     let method = RowMethod::Exact { caster };

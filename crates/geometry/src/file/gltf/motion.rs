@@ -60,7 +60,8 @@ impl Channel {
         match self.interpolation {
             Interpolation::Step => value(k),
             Interpolation::Linear if rotation => {
-                let (a, b) = (quat(value(k)), quat(value(k + 1)));
+                // (slerp takes unit quaternions; normalised integers are not quite.)
+                let (a, b) = (quat(value(k)).normalize(), quat(value(k + 1)).normalize());
                 let b = if a.dot(b) < 0.0 { -b } else { b };
                 a.slerp(b, s).normalize().to_array()
             }
@@ -405,7 +406,11 @@ fn group_poses(
             .to_cols_array()
             .iter()
             .fold(0.0f64, |a, &c| a.max(c.abs()));
-        if stray > RIGID_TOLERANCE || (rotation.determinant() - 1.0).abs() > RIGID_TOLERANCE {
+        // (Written to refuse NaN too: a zero rotation or scale at rest makes one.)
+        let rigid = m.is_finite()
+            && stray <= RIGID_TOLERANCE
+            && (rotation.determinant() - 1.0).abs() <= RIGID_TOLERANCE;
+        if !rigid {
             return Err(format!(
                 "node {i} (mesh {group:?}) is scaled or sheared from where the file places it: not a rigid motion"
             ));
@@ -415,12 +420,14 @@ fn group_poses(
             translation: m.w_axis.truncate(),
         };
         match poses.get(&group) {
-            Some((other, j)) if *other != pose => {
+            Some((other, j)) if !same_pose(other, &pose) => {
                 return Err(format!(
                     "mesh {group:?} is placed by nodes {j} and {i}, which move differently: give each node a mesh of its own name"
                 ))
             }
-            _ => {
+            // (The first node's pose stands for the others, which agree to rounding.)
+            Some(_) => {}
+            None => {
                 poses.insert(group.clone(), (pose, i));
             }
         }
@@ -432,4 +439,16 @@ fn group_poses(
         ));
     }
     Ok(poses.into_iter().map(|(g, (pose, _))| (g, pose)).collect())
+}
+
+/// Whether two nodes placing one mesh move it alike: the same pose but for rounding (a
+/// mesh placed by several children of one moving node gets `Wp(t) L (Wp L)⁻¹` from each).
+fn same_pose(a: &Rigid, b: &Rigid) -> bool {
+    const CLOSE: f64 = 1e-9;
+    let turn = (a.rotation - b.rotation)
+        .to_cols_array()
+        .iter()
+        .fold(0.0f64, |m, &c| m.max(c.abs()));
+    let size = 1.0 + a.translation.length().max(b.translation.length());
+    turn <= CLOSE && (a.translation - b.translation).length() <= CLOSE * size
 }
