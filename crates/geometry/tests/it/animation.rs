@@ -5,7 +5,7 @@
 use crate::meshes::{base64, write};
 use glam::DVec3;
 use rad_geometry::file::{load, read_motion, LoadConfig};
-use rad_geometry::{Motion, Scene};
+use rad_geometry::Scene;
 
 /// A floor (mesh "floor", node 0), a lid (mesh "lid", node 1, at y = 1 facing down) and
 /// a handle on it (mesh "handle", node 2, a child of node 1); node 1 turns about x from

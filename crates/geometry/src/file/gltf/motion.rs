@@ -160,6 +160,17 @@ pub fn gltf_motion_from_bytes(path: &Path, bytes: &[u8]) -> Result<Motion, Error
             stack.push(c);
         }
     }
+    // Each node's group, if it places a mesh (the loader's name for it).
+    let groups: Vec<Option<String>> = doc
+        .nodes()
+        .map(|node| {
+            node.mesh().map(|mesh| {
+                mesh.name()
+                    .map(str::to_string)
+                    .unwrap_or_else(|| format!("mesh {}", mesh.index()))
+            })
+        })
+        .collect();
     let mut steps = Vec::with_capacity(times.len());
     for &t in &times {
         let mut local = rest.clone();
@@ -174,7 +185,7 @@ pub fn gltf_motion_from_bytes(path: &Path, bytes: &[u8]) -> Result<Motion, Error
                 }
             }
         }
-        let poses = group_poses(doc, &order, &parent, &rest, &local)
+        let poses = group_poses(&groups, &order, &parent, &rest, &local)
             .map_err(|why| fail(format!("at t = {t}: {why}")))?;
         steps.push(MotionStep {
             name: format!("t = {t}"),
@@ -362,7 +373,7 @@ fn read_channels(
 /// Each mesh group's pose (`W(t) · W_rest⁻¹` of its node's world transforms), for the
 /// groups whose node or an ancestor is not where the file places it.
 fn group_poses(
-    doc: &gltf::Document,
+    groups: &[Option<String>],
     order: &[usize],
     parent: &[Option<usize>],
     rest: &[Local],
@@ -387,14 +398,9 @@ fn group_poses(
     let mut poses: BTreeMap<String, (Rigid, usize)> = BTreeMap::new();
     let mut still: BTreeMap<String, usize> = BTreeMap::new();
     for &i in order {
-        let node = doc.nodes().nth(i).expect("a node of the document");
-        let Some(mesh) = node.mesh() else {
+        let Some(group) = groups[i].clone() else {
             continue;
         };
-        let group = mesh
-            .name()
-            .map(str::to_string)
-            .unwrap_or_else(|| format!("mesh {}", mesh.index()));
         if !moved[i] {
             still.insert(group, i);
             continue;
