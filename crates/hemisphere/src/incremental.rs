@@ -12,6 +12,11 @@
 //! cells that see them), and the rows equal [`crate::compute_area_rows`]' over the new
 //! scene to the bit (tested).
 //!
+//! A step reads only the rings it needs of a kept buffer ([`runs`]: coded ring by ring,
+//! with the rings and cells each id is seen in): the rings the cones cross and those
+//! holding a moved polygon, to plan; the rings holding a changed id, to sum; rings with
+//! no changed cell are copied as they are coded.
+//!
 //! "Moved" is judged on the scene rows are made from, by the bits of each polygon's f32
 //! vertices: a polygon whose vertices kept their bits is the same polygon (same terms,
 //! frame and patches). A step that changes the scene's largest coordinate divides every
@@ -26,103 +31,10 @@ use glam::DVec3;
 use rad_core::{PatchId, PolygonId, BACK, ESCAPED, NO_POLYGON};
 use rad_geometry::Scene;
 use rayon::prelude::*;
+use runs::{encode, merged_seen, slot_of, RunWriter, Runs};
+use std::sync::Arc;
 
-/// One item buffer's patch ids, run-length coded: (id, run length), no run crossing
-/// the end of a ring; each run two LEB128 varints, the id's zigzag difference from the
-/// last run's and the length less one (about 3 bytes a run on a mesh).
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-struct Runs(Box<[u8]>);
-
-/// Writes [`Runs`] a run at a time.
-#[derive(Default)]
-struct RunWriter {
-    out: Vec<u8>,
-    last: i64,
-}
-
-impl RunWriter {
-    #[inline]
-    fn put(&mut self, mut x: u64) {
-        while x >= 0x80 {
-            self.out.push((x & 0x7f) as u8 | 0x80);
-            x >>= 7;
-        }
-        self.out.push(x as u8);
-    }
-
-    #[inline]
-    fn push(&mut self, id: PatchId, n: u32) {
-        let d = i64::from(id) - self.last;
-        self.last = i64::from(id);
-        self.put(((d << 1) ^ (d >> 63)) as u64);
-        self.put(u64::from(n - 1));
-    }
-
-    fn finish(self) -> Runs {
-        Runs(self.out.into_boxed_slice())
-    }
-}
-
-impl Runs {
-    fn from_pairs(pairs: &[(PatchId, u32)]) -> Runs {
-        let mut w = RunWriter::default();
-        for &(id, n) in pairs {
-            w.push(id, n);
-        }
-        w.finish()
-    }
-
-    fn iter(&self) -> RunIter<'_> {
-        RunIter {
-            bytes: &self.0,
-            at: 0,
-            last: 0,
-        }
-    }
-
-    fn bytes(&self) -> usize {
-        self.0.len()
-    }
-}
-
-/// The runs of [`Runs`], in order.
-struct RunIter<'a> {
-    bytes: &'a [u8],
-    at: usize,
-    last: i64,
-}
-
-impl RunIter<'_> {
-    #[inline]
-    fn varint(&mut self) -> u64 {
-        let mut x = 0u64;
-        let mut shift = 0;
-        loop {
-            let b = self.bytes[self.at];
-            self.at += 1;
-            x |= u64::from(b & 0x7f) << shift;
-            if b & 0x80 == 0 {
-                return x;
-            }
-            shift += 7;
-        }
-    }
-}
-
-impl Iterator for RunIter<'_> {
-    type Item = (PatchId, u32);
-    #[inline]
-    fn next(&mut self) -> Option<(PatchId, u32)> {
-        if self.at >= self.bytes.len() {
-            return None;
-        }
-        let z = self.varint();
-        let d = ((z >> 1) as i64) ^ -((z & 1) as i64);
-        self.last += d;
-        let n = self.varint() as u32 + 1;
-        Some((self.last as PatchId, n))
-    }
-}
+mod runs;
 
 /// Where a patch would cast again more than this share of its cells' worth of rays, it
 /// is cast whole by the caster (the default; [`moved_area_rows_from`] takes another):
@@ -136,13 +48,13 @@ const NEAR_PER_RAY: f64 = 8.0;
 /// What a patch's last rows kept: its buffers (one an origin) and its row.
 #[derive(Clone, Debug)]
 struct Kept {
-    runs: Box<[Runs]>,
+    runs: Box<[Arc<Runs>]>,
     row: Row,
 }
 
 impl Kept {
     fn bytes(&self) -> usize {
-        let runs: usize = self.runs.iter().map(Runs::bytes).sum();
+        let runs: usize = self.runs.iter().map(|r| r.bytes()).sum();
         runs + self.row.entries.len() * std::mem::size_of::<(PatchId, f64)>()
     }
 }
@@ -351,6 +263,18 @@ pub fn moved_area_rows_from<C: Caster, R: Caster>(
                     _ => None,
                 };
                 let again = before.and_then(|(m, k)| {
+                    // (The cells cast again ray by ray, known from the ids kept: past
+                    // the limit alone, no plan is made.)
+                    let rays: u64 = k
+                        .runs
+                        .iter()
+                        .flat_map(|r| r.seen())
+                        .filter(|s| met_moved(scene, m, step.any, s.id))
+                        .map(|s| u64::from(s.cells))
+                        .sum();
+                    if rays as f64 > whole_from * n_cells as f64 {
+                        return None;
+                    }
                     let plans: Vec<Plan> = viewpoints
                         .iter()
                         .zip(k.runs.iter())
@@ -432,16 +356,6 @@ struct Buffers {
     slot: Vec<u32>,
 }
 
-/// A patch id's place in [`Buffers::slot`] for `n` patches.
-#[inline]
-fn slot_of(id: PatchId, n: usize) -> usize {
-    match id {
-        ESCAPED => n,
-        BACK => n + 1,
-        j => j as usize,
-    }
-}
-
 /// The viewpoints of patch `p`'s row and their weights, as [`crate::compute_area_rows`]
 /// takes them.
 fn viewpoints(scene: &Scene, p: PatchId, origins: u32) -> Vec<(Viewpoint, f64)> {
@@ -477,24 +391,36 @@ fn whole<C: Caster>(
 ) -> Kept {
     let (mut back, mut escaped) = (0.0, 0.0);
     let mut runs = Vec::with_capacity(viewpoints.len());
+    let ring_ff = hemi.ring_form_factors();
+    let n_phi = hemi.n_phi();
     for &(at, weight) in viewpoints {
         caster.item_buffer_at(scene, hemi, at, scratch, &mut b.buf);
-        runs.push(encode(&b.buf.patch, hemi.n_phi()));
-        if origins > 1 {
-            hemi.accumulate_items(&b.buf, weight, &mut b.acc, &mut back, &mut escaped);
-        }
+        // (The row's sums a run at a time, each cell's form factor added in cell order
+        // as `row_from_items` and `accumulate_items` add them: the same bits. One
+        // origin: compute_rows' row, whose sums take the cells' form factors unweighted.)
+        let acc = &mut b.acc;
+        let coded = encode(&b.buf.patch, n_phi, &mut b.slot, |ring, id, n| {
+            let ff = if origins == 1 {
+                ring_ff[ring]
+            } else {
+                weight * ring_ff[ring]
+            };
+            let sum = match id {
+                ESCAPED => &mut escaped,
+                BACK => &mut back,
+                j => return acc.add_run(j, ff, n),
+            };
+            for _ in 0..n {
+                *sum += ff;
+            }
+        });
+        runs.push(Arc::new(coded));
     }
-    // (One origin: compute_rows' row, whose sums take the cells' form factors
-    // unweighted.)
-    let row = if origins == 1 {
-        hemi.row_from_items(p, &b.buf, &mut b.acc)
-    } else {
-        Row {
-            patch: p,
-            entries: b.acc.take(),
-            back,
-            escaped,
-        }
+    let row = Row {
+        patch: p,
+        entries: b.acc.take(),
+        back,
+        escaped,
     };
     Kept {
         runs: runs.into_boxed_slice(),
@@ -511,7 +437,7 @@ struct Again<'a, R> {
 }
 
 impl<R: Caster> Again<'_, R> {
-    /// The patch's buffers and row with `cells` (by viewpoint) cast again.
+    /// The patch's buffers and row with the cells of `plans` (by viewpoint) cast again.
     fn update(
         &self,
         p: PatchId,
@@ -521,35 +447,33 @@ impl<R: Caster> Again<'_, R> {
         scratch: &mut R::Scratch,
         b: &mut Buffers,
     ) -> Kept {
+        // Each viewpoint's cells whose id changed, in order, and their new ids.
         let mut changed: Vec<PatchId> = Vec::new();
         let mut recast = Vec::with_capacity(viewpoints.len());
         for (&(at, _), plan) in viewpoints.iter().zip(plans) {
-            if plan.cells() == 0 {
-                recast.push((Vec::new(), Vec::new()));
-                continue;
-            }
-            let by_ray = self.cast(at, &plan.rays, scratch, b);
-            let near = self.near(at, plan, b);
-            // (Both lists in cell order, disjoint: merged.)
-            let mut cells = Vec::with_capacity(plan.cells());
-            let mut ids = Vec::with_capacity(plan.cells());
-            let (mut i, mut j) = (0, 0);
-            while i < plan.rays.len() || j < plan.near.len() {
-                let (cell, old, new) = if j == plan.near.len()
-                    || (i < plan.rays.len() && plan.rays[i] < plan.near[j])
-                {
-                    i += 1;
-                    (plan.rays[i - 1], plan.rays_old[i - 1], by_ray[i - 1])
-                } else {
-                    j += 1;
-                    (plan.near[j - 1], plan.near_old[j - 1], near[j - 1])
-                };
-                if old != new {
-                    changed.push(old);
-                    changed.push(new);
+            let (mut cells, mut ids) = (Vec::new(), Vec::new());
+            if plan.cells() > 0 {
+                let by_ray = self.cast(at, &plan.rays, scratch, b);
+                let near = self.near(at, plan, b);
+                // (Both lists in cell order, disjoint: merged.)
+                let (mut i, mut j) = (0, 0);
+                while i < plan.rays.len() || j < plan.near.len() {
+                    let (cell, old, new) = if j == plan.near.len()
+                        || (i < plan.rays.len() && plan.rays[i] < plan.near[j])
+                    {
+                        i += 1;
+                        (plan.rays[i - 1], plan.rays_old[i - 1], by_ray[i - 1])
+                    } else {
+                        j += 1;
+                        (plan.near[j - 1], plan.near_old[j - 1], near[j - 1])
+                    };
+                    if old != new {
+                        changed.push(old);
+                        changed.push(new);
+                        cells.push(cell);
+                        ids.push(new);
+                    }
                 }
-                cells.push(cell);
-                ids.push(new);
             }
             recast.push((cells, ids));
         }
@@ -559,11 +483,16 @@ impl<R: Caster> Again<'_, R> {
         }
         changed.sort_unstable();
         changed.dedup();
-        // One walk a viewpoint, in order: the new runs, and the sums of the changed
-        // patches' cells as the row's sums take them (cell by cell, in order).
+        // A walk a viewpoint, ring by ring: rings with changed cells written anew, the
+        // others copied; and the sums of the changed patches' cells as the row's sums
+        // take them (cell by cell, in order), over the rings that hold them, before or
+        // now (every cell of a changed id lies in a ring that held it or changed).
+        let n_theta = self.hemi.n_theta();
         let n_phi = self.hemi.n_phi() as u32;
         let ring_ff = self.hemi.ring_form_factors();
         let mut sums = vec![0.0f64; changed.len()];
+        let mut span = vec![(u32::MAX, 0u32, 0u32); changed.len()];
+        let mut walk = vec![0i32; n_theta + 1];
         let mut runs = Vec::with_capacity(viewpoints.len());
         let n = self.scene.patches().len();
         let slot = &mut b.slot;
@@ -573,28 +502,74 @@ impl<R: Caster> Again<'_, R> {
         for ((&(_, weight), old), (cells, ids)) in
             viewpoints.iter().zip(kept.runs.iter()).zip(&recast)
         {
-            let mut add = |id: PatchId, k: u32, start: u32| {
+            walk.fill(0);
+            let mut any = false;
+            for &id in &changed {
+                if let Some(s) = old.find(id) {
+                    walk[s.first as usize] += 1;
+                    walk[s.last as usize + 1] -= 1;
+                    any = true;
+                }
+            }
+            if !any && cells.is_empty() {
+                runs.push(old.clone());
+                continue;
+            }
+            span.fill((u32::MAX, 0, 0));
+            let mut add = |id: PatchId, k: u32, ring: usize| {
                 let i = slot[slot_of(id, n)];
                 if i != u32::MAX {
                     let i = i as usize;
-                    let ff = ring_ff[(start / n_phi) as usize];
+                    let ff = ring_ff[ring];
                     let ff = if self.origins == 1 { ff } else { weight * ff };
                     let s = &mut sums[i];
                     for _ in 0..k {
                         *s += ff;
                     }
+                    let sp = &mut span[i];
+                    sp.0 = sp.0.min(ring as u32);
+                    sp.1 = ring as u32;
+                    sp.2 += k;
                 }
             };
-            if cells.is_empty() {
-                let mut at = 0u32;
-                for (id, n) in old.iter() {
-                    add(id, n, at);
-                    at += n;
+            let mut out = RunWriter::with_capacity(old.coded_bytes() + 4 * cells.len(), n_theta);
+            let (mut depth, mut k) = (0, 0);
+            for r in 0..n_theta {
+                depth += walk[r];
+                let start = r as u32 * n_phi;
+                if k < cells.len() && cells[k] < start + n_phi {
+                    out.ring();
+                    let mut c = start;
+                    for (id, m) in old.ring(r) {
+                        let end = c + m;
+                        while k < cells.len() && cells[k] < end {
+                            let cell = cells[k];
+                            if cell > c {
+                                out.push(id, cell - c);
+                                add(id, cell - c, r);
+                            }
+                            out.push(ids[k], 1);
+                            add(ids[k], 1, r);
+                            c = cell + 1;
+                            k += 1;
+                        }
+                        if end > c {
+                            out.push(id, end - c);
+                            add(id, end - c, r);
+                        }
+                        c = end;
+                    }
+                } else {
+                    out.copy_ring(old.ring_bytes(r));
+                    if depth > 0 {
+                        for (id, m) in old.ring(r) {
+                            add(id, m, r);
+                        }
+                    }
                 }
-                runs.push(old.clone());
-            } else {
-                runs.push(patched(old, n_phi as usize, cells, ids, &mut add));
             }
+            let seen = merged_seen(old.seen(), &changed, &span);
+            runs.push(Arc::new(out.finish(seen)));
         }
         for &id in &changed {
             slot[slot_of(id, n)] = u32::MAX;
@@ -713,32 +688,37 @@ fn item_ids(polygons: &[rad_geometry::Polygon], hits: &[Option<rad_core::Hit>]) 
         .collect()
 }
 
-/// `old` with the entries (and back, escaped) of the patches in `changed` (sorted)
-/// taken from `sums`.
+/// `old` (its entries by ascending patch) with the entries (and back, escaped) of the
+/// patches in `changed` (ascending) taken from `sums`: one merge.
 fn settled(p: PatchId, old: &Row, changed: &[PatchId], sums: &[f64]) -> Row {
-    let sum_of = |id: PatchId, old: f64| match changed.binary_search(&id) {
-        Ok(i) => sums[i],
-        Err(_) => old,
-    };
-    let mut entries: Vec<(PatchId, f64)> = old
-        .entries
-        .iter()
-        .filter(|e| changed.binary_search(&e.0).is_err())
-        .copied()
-        .collect();
-    entries.extend(
-        changed
-            .iter()
-            .zip(sums)
-            .filter(|&(&j, &s)| j != BACK && j != ESCAPED && s > 0.0)
-            .map(|(&j, &s)| (j, s)),
-    );
-    entries.sort_unstable_by_key(|e| e.0);
+    let mut entries: Vec<(PatchId, f64)> = Vec::with_capacity(old.entries.len() + changed.len());
+    let (mut back, mut escaped) = (old.back, old.escaped);
+    let mut fresh = changed.iter().copied().zip(sums.iter().copied()).peekable();
+    for &(j, f) in old.entries.iter() {
+        while let Some((c, s)) = fresh.next_if(|&(c, _)| c < j) {
+            if s > 0.0 {
+                entries.push((c, s));
+            }
+        }
+        match fresh.next_if(|&(c, _)| c == j) {
+            Some((_, s)) if s > 0.0 => entries.push((j, s)),
+            Some(_) => {}
+            None => entries.push((j, f)),
+        }
+    }
+    for (c, s) in fresh {
+        match c {
+            BACK => back = s,
+            ESCAPED => escaped = s,
+            _ if s > 0.0 => entries.push((c, s)),
+            _ => {}
+        }
+    }
     Row {
         patch: p,
         entries,
-        back: sum_of(BACK, old.back),
-        escaped: sum_of(ESCAPED, old.escaped),
+        back,
+        escaped,
     }
 }
 
@@ -819,8 +799,19 @@ impl Plan {
     }
 }
 
+/// Whether a cell that met `id` is cast again ray by ray: it met a polygon that moved,
+/// or a back while `any` polygon moved.
+#[inline]
+fn met_moved(scene: &Scene, moved: &[bool], any: bool, id: PatchId) -> bool {
+    match id {
+        BACK => any,
+        ESCAPED => false,
+        j => moved[scene.patches()[j as usize].polygon as usize],
+    }
+}
+
 /// The cells of the kept buffer `runs` at `at` to cast again ([`Plan`]): one walk over
-/// the runs, after the moved polygons' cones.
+/// the rings that the moved polygons' cones cross or that hold a moved polygon.
 fn plan(
     scene: &Scene,
     hemi: &Hemisphere,
@@ -829,10 +820,8 @@ fn plan(
     step: &Moved,
     runs: &Runs,
 ) -> Plan {
-    let patches = scene.patches();
     let n_cells = hemi.n_cells();
     let n_phi = hemi.n_phi();
-    let words = n_cells.div_ceil(64);
     // Each bound's cone of directions, in the patch's frame: for each ring, the
     // interval of azimuths within the cone (padded by a cell either side).
     let frame = scene.polygons()[at.polygon as usize].frame();
@@ -842,7 +831,6 @@ fn plan(
     const SLACK: f64 = 1e-4;
     let d_phi = hemi.d_phi();
     let shift = hemi.config().phi_shift;
-    let mut in_cone = vec![0u64; words];
     let mut cones = Vec::new();
     for b in &step.bounds {
         let v = b.centre - o;
@@ -889,175 +877,67 @@ fn plan(
             continue;
         }
         spans.sort_unstable();
-        for &(lo, hi) in &spans {
-            mark_range(&mut in_cone, lo as usize, hi as usize);
-        }
         cones.push((b.polygon, spans));
     }
-    // One walk: a run that met a moved polygon (or a back) is cast again whole, ray by
-    // ray; of the others, the cells in a cone are tested.
-    let any = step.any;
+    // The cells in some cone, as disjoint intervals in order.
+    let mut in_cone: Vec<(u32, u32)> = cones.iter().flat_map(|(_, s)| s.iter().copied()).collect();
+    in_cone.sort_unstable();
+    in_cone.dedup_by(|b, a| {
+        // (`a` the interval before `b`: merged where they touch.)
+        if b.0 <= a.1 {
+            a.1 = a.1.max(b.1);
+            true
+        } else {
+            false
+        }
+    });
+    // The rings to read: those the cones cross, and those holding an id met again.
+    let again = |id: PatchId| met_moved(scene, moved, step.any, id);
+    let n_rings = hemi.n_theta();
+    let mut walk = vec![0i32; n_rings + 1];
+    for &(lo, hi) in &in_cone {
+        walk[lo as usize / n_phi] += 1;
+        walk[(hi as usize - 1) / n_phi + 1] -= 1;
+    }
+    for s in runs.seen() {
+        if again(s.id) {
+            walk[s.first as usize] += 1;
+            walk[s.last as usize + 1] -= 1;
+        }
+    }
+    // One walk over them: a run that met a moved polygon (or a back) is cast again
+    // whole, ray by ray; of the others, the cells in a cone are tested.
     let mut plan = Plan {
         cones,
         ..Plan::default()
     };
-    let mut cell = 0usize;
-    for (id, n) in runs.iter() {
-        let n = n as usize;
-        let again = match id {
-            BACK => any,
-            ESCAPED => false,
-            j => moved[patches[j as usize].polygon as usize],
-        };
-        if again {
-            plan.rays.extend(cell as u32..(cell + n) as u32);
-            plan.rays_old.extend(std::iter::repeat_n(id, n));
-        } else if !plan.cones.is_empty() {
-            for_each_set(&in_cone, cell, cell + n, |c| {
-                plan.near.push(c as u32);
-                plan.near_old.push(id);
-            });
-        }
-        cell += n;
-    }
-    plan
-}
-
-/// Calls `f` with every set bit of `bits` in `from..to`, in order.
-#[inline]
-fn for_each_set(bits: &[u64], from: usize, to: usize, mut f: impl FnMut(usize)) {
-    let mut c = from;
-    while c < to {
-        let w = c / 64;
-        let mut word = bits[w] >> (c % 64);
-        if word == 0 {
-            c = (w + 1) * 64;
+    let (mut depth, mut iv) = (0, 0);
+    for (r, w) in walk[..n_rings].iter().enumerate() {
+        depth += w;
+        if depth == 0 {
             continue;
         }
-        let end = to.min((w + 1) * 64);
-        while word != 0 {
-            let k = c + word.trailing_zeros() as usize;
-            if k >= end {
-                break;
+        let mut cell = (r * n_phi) as u32;
+        for (id, n) in runs.ring(r) {
+            let end = cell + n;
+            if again(id) {
+                plan.rays.extend(cell..end);
+                plan.rays_old.extend(std::iter::repeat_n(id, n as usize));
+            } else {
+                while iv < in_cone.len() && in_cone[iv].1 <= cell {
+                    iv += 1;
+                }
+                let mut j = iv;
+                while j < in_cone.len() && in_cone[j].0 < end {
+                    let (lo, hi) = (in_cone[j].0.max(cell), in_cone[j].1.min(end));
+                    plan.near.extend(lo..hi);
+                    plan.near_old
+                        .extend(std::iter::repeat_n(id, (hi - lo) as usize));
+                    j += 1;
+                }
             }
-            f(k);
-            word &= word - 1;
-        }
-        c = (w + 1) * 64;
-    }
-}
-
-/// Sets bits `from..to` of `bits`.
-fn mark_range(bits: &mut [u64], from: usize, to: usize) {
-    if from >= to {
-        return;
-    }
-    let (first, last) = (from / 64, (to - 1) / 64);
-    let lo = !0u64 << (from % 64);
-    let hi = !0u64 >> (63 - (to - 1) % 64);
-    if first == last {
-        bits[first] |= lo & hi;
-        return;
-    }
-    bits[first] |= lo;
-    for w in &mut bits[first + 1..last] {
-        *w = !0;
-    }
-    bits[last] |= hi;
-}
-
-/// `old` with `cells` (sorted) holding `ids`; `add(id, n, start)` hears every piece of
-/// the result in order (a run of `n` cells seeing `id` from cell `start`, within a ring).
-fn patched(
-    old: &Runs,
-    n_phi: usize,
-    cells: &[u32],
-    ids: &[PatchId],
-    add: &mut impl FnMut(PatchId, u32, u32),
-) -> Runs {
-    let mut out: Vec<(PatchId, u32)> = Vec::with_capacity(old.bytes() / 2 + 2 * cells.len());
-    let n_phi = n_phi as u32;
-    let mut push = |id: PatchId, n: u32, start: u32| {
-        add(id, n, start);
-        match out.last_mut() {
-            Some((last, m)) if *last == id && !start.is_multiple_of(n_phi) => *m += n,
-            _ => out.push((id, n)),
-        }
-    };
-    let (mut at, mut k) = (0u32, 0);
-    for (id, n) in old.iter() {
-        let end = at + n;
-        let mut c = at;
-        while k < cells.len() && cells[k] < end {
-            let cell = cells[k];
-            if cell > c {
-                push(id, cell - c, c);
-            }
-            push(ids[k], 1, cell);
-            c = cell + 1;
-            k += 1;
-        }
-        if end > c {
-            push(id, end - c, c);
-        }
-        at = end;
-    }
-    Runs::from_pairs(&out)
-}
-
-/// An item buffer's ids as runs, none crossing the end of a ring.
-fn encode(ids: &[PatchId], n_phi: usize) -> Runs {
-    let mut out = RunWriter::default();
-    for ring in ids.chunks(n_phi) {
-        let mut k = 0;
-        while k < ring.len() {
-            let id = ring[k];
-            let mut n = 1;
-            while k + n < ring.len() && ring[k + n] == id {
-                n += 1;
-            }
-            out.push(id, n as u32);
-            k += n;
+            cell = end;
         }
     }
-    out.finish()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn runs_read_back_as_written() {
-        let pairs = vec![
-            (7, 3),
-            (5, 1),
-            (ESCAPED, 700),
-            (BACK, 2),
-            (0, 1),
-            (1 << 25, 129_600),
-        ];
-        let runs = Runs::from_pairs(&pairs);
-        assert_eq!(runs.iter().collect::<Vec<_>>(), pairs);
-        assert!(runs.bytes() < 8 * pairs.len());
-        let ids: Vec<PatchId> = [3, 3, 3, 4, 4, 3, 3, 3, 9].to_vec();
-        let got: Vec<_> = encode(&ids, 4).iter().collect();
-        assert_eq!(
-            got,
-            [(3, 3), (4, 1), (4, 1), (3, 3), (9, 1)],
-            "no run crosses a ring"
-        );
-        let mut pieces = Vec::new();
-        let new = patched(&encode(&ids, 4), 4, &[3, 8], &[3, 9], &mut |id, n, at| {
-            pieces.push((id, n, at))
-        });
-        assert_eq!(
-            new.iter().collect::<Vec<_>>(),
-            [(3, 4), (4, 1), (3, 3), (9, 1)]
-        );
-        assert_eq!(
-            pieces,
-            [(3, 3, 0), (3, 1, 3), (4, 1, 4), (3, 3, 5), (9, 1, 8)]
-        );
-    }
+    plan
 }

@@ -66,6 +66,17 @@ impl RowAccumulator {
         *a += ff;
     }
 
+    /// `n` times [`RowAccumulator::add`] of the same form factor: the same bits.
+    #[inline]
+    pub fn add_run(&mut self, patch: PatchId, ff: f64, n: u32) {
+        let a = &mut self.acc[patch as usize];
+        self.touched[self.n_touched] = patch;
+        self.n_touched += (*a == 0.0) as usize;
+        for _ in 0..n {
+            *a += ff;
+        }
+    }
+
     /// The accumulated entries, sorted by patch; resets the accumulator.
     pub fn take(&mut self) -> Vec<(PatchId, f64)> {
         let touched = &mut self.touched[..self.n_touched];
