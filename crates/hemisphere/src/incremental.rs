@@ -263,29 +263,9 @@ pub fn moved_area_rows_from<C: Caster, R: Caster>(
                     _ => None,
                 };
                 let again = before.and_then(|(m, k)| {
-                    // (The cells cast again ray by ray, known from the ids kept: past
-                    // the limit alone, no plan is made.)
-                    let rays: u64 = k
-                        .runs
-                        .iter()
-                        .flat_map(|r| r.seen())
-                        .filter(|s| met_moved(scene, m, step.any, s.id))
-                        .map(|s| u64::from(s.cells))
-                        .sum();
-                    if rays as f64 > whole_from * n_cells as f64 {
-                        return None;
-                    }
-                    let plans: Vec<Plan> = viewpoints
-                        .iter()
-                        .zip(k.runs.iter())
-                        .map(|(&(at, _), runs)| plan(scene, hemi, at, m, &step, runs))
-                        .collect();
+                    let plans = plans_within(scene, hemi, (m, &step), &viewpoints, k, whole_from)?;
                     let total: usize = plans.iter().map(Plan::cells).sum();
-                    let cost: f64 = plans
-                        .iter()
-                        .map(|p| p.rays.len() as f64 + p.near.len() as f64 / NEAR_PER_RAY)
-                        .sum();
-                    (cost <= whole_from * n_cells as f64).then_some((k, plans, total))
+                    Some((k, plans, total))
                 });
                 let made = match again {
                     Some((k, cells, total)) => {
@@ -309,6 +289,41 @@ pub fn moved_area_rows_from<C: Caster, R: Caster>(
         )
         .collect();
     Ok(kept.take(patches, made))
+}
+
+/// The plans of a kept patch's viewpoints, if casting them again costs at most
+/// `whole_from` of its cells in single rays (else it is cast whole).
+fn plans_within(
+    scene: &Scene,
+    hemi: &Hemisphere,
+    (moved, step): (&[bool], &Moved),
+    viewpoints: &[(Viewpoint, f64)],
+    kept: &Kept,
+    whole_from: f64,
+) -> Option<Vec<Plan>> {
+    let limit = whole_from * (viewpoints.len() * hemi.n_cells()) as f64;
+    // (The cells cast again ray by ray, known from the ids kept: past the limit alone,
+    // no plan is made.)
+    let rays: u64 = kept
+        .runs
+        .iter()
+        .flat_map(|r| r.seen())
+        .filter(|s| met_moved(scene, moved, step.any, s.id))
+        .map(|s| u64::from(s.cells))
+        .sum();
+    if rays as f64 > limit {
+        return None;
+    }
+    let plans: Vec<Plan> = viewpoints
+        .iter()
+        .zip(kept.runs.iter())
+        .map(|(&(at, _), runs)| plan(scene, hemi, at, moved, step, runs))
+        .collect();
+    let cost: f64 = plans
+        .iter()
+        .map(|p| p.rays.len() as f64 + p.near.len() as f64 / NEAR_PER_RAY)
+        .sum();
+    (cost <= limit).then_some(plans)
 }
 
 impl KeptBuffers {
@@ -447,36 +462,7 @@ impl<R: Caster> Again<'_, R> {
         scratch: &mut R::Scratch,
         b: &mut Buffers,
     ) -> Kept {
-        // Each viewpoint's cells whose id changed, in order, and their new ids.
-        let mut changed: Vec<PatchId> = Vec::new();
-        let mut recast = Vec::with_capacity(viewpoints.len());
-        for (&(at, _), plan) in viewpoints.iter().zip(plans) {
-            let (mut cells, mut ids) = (Vec::new(), Vec::new());
-            if plan.cells() > 0 {
-                let by_ray = self.cast(at, &plan.rays, scratch, b);
-                let near = self.near(at, plan, b);
-                // (Both lists in cell order, disjoint: merged.)
-                let (mut i, mut j) = (0, 0);
-                while i < plan.rays.len() || j < plan.near.len() {
-                    let (cell, old, new) = if j == plan.near.len()
-                        || (i < plan.rays.len() && plan.rays[i] < plan.near[j])
-                    {
-                        i += 1;
-                        (plan.rays[i - 1], plan.rays_old[i - 1], by_ray[i - 1])
-                    } else {
-                        j += 1;
-                        (plan.near[j - 1], plan.near_old[j - 1], near[j - 1])
-                    };
-                    if old != new {
-                        changed.push(old);
-                        changed.push(new);
-                        cells.push(cell);
-                        ids.push(new);
-                    }
-                }
-            }
-            recast.push((cells, ids));
-        }
+        let (mut changed, recast) = self.recast(viewpoints, plans, scratch, b);
         if changed.is_empty() {
             // (No cell changed: the same buffers, the same row.)
             return kept.clone();
@@ -579,6 +565,48 @@ impl<R: Caster> Again<'_, R> {
             runs: runs.into_boxed_slice(),
             row,
         }
+    }
+
+    /// The cells of `plans` cast again: each viewpoint's cells whose id changed, in
+    /// order, with their new ids; and the ids they changed from and to.
+    #[allow(clippy::type_complexity)]
+    fn recast(
+        &self,
+        viewpoints: &[(Viewpoint, f64)],
+        plans: &[Plan],
+        scratch: &mut R::Scratch,
+        b: &mut Buffers,
+    ) -> (Vec<PatchId>, Vec<(Vec<u32>, Vec<PatchId>)>) {
+        let mut changed: Vec<PatchId> = Vec::new();
+        let mut recast = Vec::with_capacity(viewpoints.len());
+        for (&(at, _), plan) in viewpoints.iter().zip(plans) {
+            let (mut cells, mut ids) = (Vec::new(), Vec::new());
+            if plan.cells() > 0 {
+                let by_ray = self.cast(at, &plan.rays, scratch, b);
+                let near = self.near(at, plan, b);
+                // (Both lists in cell order, disjoint: merged.)
+                let (mut i, mut j) = (0, 0);
+                while i < plan.rays.len() || j < plan.near.len() {
+                    let (cell, old, new) = if j == plan.near.len()
+                        || (i < plan.rays.len() && plan.rays[i] < plan.near[j])
+                    {
+                        i += 1;
+                        (plan.rays[i - 1], plan.rays_old[i - 1], by_ray[i - 1])
+                    } else {
+                        j += 1;
+                        (plan.near[j - 1], plan.near_old[j - 1], near[j - 1])
+                    };
+                    if old != new {
+                        changed.push(old);
+                        changed.push(new);
+                        cells.push(cell);
+                        ids.push(new);
+                    }
+                }
+            }
+            recast.push((cells, ids));
+        }
+        (changed, recast)
     }
 
     /// The ids of the plan's `near` cells at `at`: each cell's kept polygon (it met no
@@ -790,7 +818,7 @@ struct Plan {
     near_old: Vec<PatchId>,
     /// Per moved polygon that may be seen: its id and its cone's cells, as intervals
     /// `[lo, hi)` in cell order.
-    cones: Vec<(PolygonId, Vec<(u32, u32)>)>,
+    cones: Cones,
 }
 
 impl Plan {
@@ -810,20 +838,12 @@ fn met_moved(scene: &Scene, moved: &[bool], any: bool, id: PatchId) -> bool {
     }
 }
 
-/// The cells of the kept buffer `runs` at `at` to cast again ([`Plan`]): one walk over
-/// the rings that the moved polygons' cones cross or that hold a moved polygon.
-fn plan(
-    scene: &Scene,
-    hemi: &Hemisphere,
-    at: Viewpoint,
-    moved: &[bool],
-    step: &Moved,
-    runs: &Runs,
-) -> Plan {
+/// Each moved polygon's cone of directions from `at` (its padded bounding sphere), in
+/// the patch's frame: its id and, for each ring, the interval of azimuths within the
+/// cone (padded by a cell either side), as cell intervals `[lo, hi)` in order.
+fn cones(scene: &Scene, hemi: &Hemisphere, at: Viewpoint, step: &Moved) -> Cones {
     let n_cells = hemi.n_cells();
     let n_phi = hemi.n_phi();
-    // Each bound's cone of directions, in the patch's frame: for each ring, the
-    // interval of azimuths within the cone (padded by a cell either side).
     let frame = scene.polygons()[at.polygon as usize].frame();
     let o = at.point.as_dvec3();
     let (t, bb, n) = (frame.t.as_dvec3(), frame.b.as_dvec3(), frame.n.as_dvec3());
@@ -879,6 +899,24 @@ fn plan(
         spans.sort_unstable();
         cones.push((b.polygon, spans));
     }
+    cones
+}
+
+/// Per moved polygon whose cone is not empty: its id and its cells, as intervals.
+type Cones = Vec<(PolygonId, Vec<(u32, u32)>)>;
+
+/// The cells of the kept buffer `runs` at `at` to cast again ([`Plan`]): one walk over
+/// the rings that the moved polygons' cones cross or that hold a moved polygon.
+fn plan(
+    scene: &Scene,
+    hemi: &Hemisphere,
+    at: Viewpoint,
+    moved: &[bool],
+    step: &Moved,
+    runs: &Runs,
+) -> Plan {
+    let n_phi = hemi.n_phi();
+    let cones = cones(scene, hemi, at, step);
     // The cells in some cone, as disjoint intervals in order.
     let mut in_cone: Vec<(u32, u32)> = cones.iter().flat_map(|(_, s)| s.iter().copied()).collect();
     in_cone.sort_unstable();
