@@ -38,14 +38,9 @@ pub(crate) fn motion_folder<'p>(
     path: &Path,
     desc: &SceneDesc,
 ) -> Result<(&'p Path, Motion), Error> {
-    if ctx.ranks.size() > 1 {
-        return Err(Error::Flags(
-            "--motion runs in one process: run it without mpirun".into(),
-        ));
-    }
     let Some(dir) = out else {
         return Err(Error::Flags(
-            "--motion writes one file a step: give --out FOLDER".into(),
+            "--motion writes one file a step: give --out FOLDER (or, for view factors, --out FILE.bin: one binary file with a step index)".into(),
         ));
     };
     if dir.is_file() {
@@ -54,14 +49,25 @@ pub(crate) fn motion_folder<'p>(
             dir.display()
         )));
     }
-    let motion = read_motion(path).map_err(rad_pipeline::Error::from)?;
-    motion.check(desc).map_err(rad_pipeline::Error::from)?;
+    let motion = checked_motion(ctx, path, desc)?;
     std::fs::create_dir_all(dir).map_err(|source| rad_pipeline::Error::Io {
         action: "create",
         path: dir.to_path_buf(),
         source,
     })?;
     Ok((dir, motion))
+}
+
+/// The motion read from `path` and checked against `desc`; refused under MPI.
+pub(crate) fn checked_motion(ctx: &Ctx, path: &Path, desc: &SceneDesc) -> Result<Motion, Error> {
+    if ctx.ranks.size() > 1 {
+        return Err(Error::Flags(
+            "--motion runs in one process: run it without mpirun".into(),
+        ));
+    }
+    let motion = read_motion(path).map_err(rad_pipeline::Error::from)?;
+    motion.check(desc).map_err(rad_pipeline::Error::from)?;
+    Ok(motion)
 }
 
 /// A bar over the patches of every step of `motion` (`what` over N steps).
@@ -94,15 +100,9 @@ impl Steps {
     /// Loads `scene` keeping its description, reads `motion` and checks it against it
     /// (one process only: refused under MPI). Makes no folder.
     pub fn load(ctx: &Ctx, scene: &Path, motion: &Path) -> Result<Steps, Error> {
-        if ctx.ranks.size() > 1 {
-            return Err(Error::Flags(
-                "--motion runs in one process: run it without mpirun".into(),
-            ));
-        }
         let (scene, desc) = ctx.load_keeping(scene, true)?;
         let desc = desc.expect("kept as asked");
-        let motion = read_motion(motion).map_err(rad_pipeline::Error::from)?;
-        motion.check(&desc).map_err(rad_pipeline::Error::from)?;
+        let motion = checked_motion(ctx, motion, &desc)?;
         let unit = motion.unit(&desc);
         Ok(Steps {
             scene,

@@ -5,17 +5,18 @@
 use crate::context::{emit, hemisphere, Ctx};
 use crate::exit::{Error, Outcome};
 use crate::flags::{matrix_format, ViewfactorsArgs};
-use crate::moving::{motion_folder, recast_note, remove_stale, steps_bar};
+use crate::moving::{checked_motion, motion_folder, recast_note, remove_stale, steps_bar};
 use crate::report::{say, warning, Report};
 use indicatif::ProgressBar;
+use rad_pipeline::matrix_file::StepsWriter;
 use rad_pipeline::output::write_atomic;
 use rad_pipeline::share::Peers;
 use rad_pipeline::viewfactors::{
     area_rows, check_format, row_patches, stream_patch_matrix, view_factors, view_factors_of_rows,
-    view_factors_over_motion, write_view_factors, MatrixFormat, ViewFactorConfig, ViewFactorRun,
-    ViewFactors,
+    view_factors_over_motion, write_view_factors, MatrixFormat, StepViewFactors, ViewFactorConfig,
+    ViewFactorRun, ViewFactors,
 };
-use rad_pipeline::{EstimateStats, Hemisphere, RowMethod, SceneFile, ViewFactorRequest};
+use rad_pipeline::{EstimateStats, Hemisphere, Motion, RowMethod, SceneFile, ViewFactorRequest};
 use std::path::Path;
 
 pub fn run(ctx: &Ctx, args: &ViewfactorsArgs) -> Result<Outcome, Error> {
@@ -68,7 +69,8 @@ pub fn run(ctx: &Ctx, args: &ViewfactorsArgs) -> Result<Outcome, Error> {
 }
 
 /// Over a motion: one file a step into the folder `out`, each written (atomically) as
-/// it is made, so that a run stopped midway leaves only whole steps.
+/// it is made, so that a run stopped midway leaves only whole steps; or, with `--out
+/// FILE.bin`, every step in that one file ([`moving_one_file`]).
 fn moving(
     ctx: &Ctx,
     (scene, desc): (&SceneFile, &rad_pipeline::SceneDesc),
@@ -78,14 +80,85 @@ fn moving(
     format: MatrixFormat,
     out: Option<&Path>,
 ) -> Result<Outcome, Error> {
+    if let Some(file) = out.filter(|o| format == MatrixFormat::Bin && is_steps_file(o)) {
+        let motion = checked_motion(ctx, motion, desc)?;
+        return moving_one_file(ctx, (scene, desc, &motion), hemi, config, file);
+    }
     let (dir, motion) = motion_folder(ctx, out, motion, desc)?;
-    let n_patches = scene.scene.patches().len();
-    let bar = steps_bar(ctx.report, &motion, n_patches, hemi, "view factors");
-    let progress = |k: usize, n: usize| bar.set_position((k * n_patches + n) as u64);
     let ext = match format {
         MatrixFormat::View3d => "txt",
         f => f.name(),
     };
+    over_steps(ctx, (scene, desc, &motion), hemi, config, &mut |s, run| {
+        let path = dir.join(format!("step_{:04}.{ext}", s.step));
+        write_atomic(&path, |w| write_view_factors(w, &s.vf, run, format))?;
+        Ok(format!("; {}", path.display()))
+    })?;
+    remove_stale(ctx.report, dir, motion.steps.len(), &[ext])?;
+    Ok(Outcome::Done)
+}
+
+/// Whether `--out` names one file for every step of a motion (`.bin`, not a folder).
+fn is_steps_file(out: &Path) -> bool {
+    out.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("bin"))
+        && !out.is_dir()
+}
+
+/// Over a motion, into one binary file with a step index
+/// ([`rad_pipeline::matrix_file::StepsWriter`]), written whole once every step is made
+/// (a run stopped midway leaves the file as it was).
+fn moving_one_file(
+    ctx: &Ctx,
+    job: (&SceneFile, &rad_pipeline::SceneDesc, &Motion),
+    hemi: &Hemisphere,
+    config: &ViewFactorConfig,
+    file: &Path,
+) -> Result<Outcome, Error> {
+    let mut failed: Option<rad_pipeline::Error> = None;
+    let written = write_atomic(file, |w| {
+        let mut steps = StepsWriter::begin(w)?;
+        let made = over_steps(ctx, job, hemi, config, &mut |s, run| {
+            steps
+                .step(|w| write_view_factors(w, &s.vf, run, MatrixFormat::Bin))
+                .map_err(|source| rad_pipeline::Error::Io {
+                    action: "write",
+                    path: file.to_path_buf(),
+                    source,
+                })?;
+            Ok(String::new())
+        });
+        if let Err(e) = made {
+            failed = Some(e);
+            return Err(std::io::Error::other("a step failed"));
+        }
+        steps.finish().map(|_| ())
+    });
+    if let Some(e) = failed {
+        return Err(e.into());
+    }
+    written?;
+    say!(
+        ctx.report,
+        "wrote {} steps to {}",
+        job.2.steps.len(),
+        file.display()
+    );
+    Ok(Outcome::Done)
+}
+
+/// Every step of the motion, handed to `write` with its metadata as it is made (what
+/// `write` returns ends the step's line on standard error), under a bar over the steps.
+fn over_steps(
+    ctx: &Ctx,
+    (scene, desc, motion): (&SceneFile, &rad_pipeline::SceneDesc, &Motion),
+    hemi: &Hemisphere,
+    config: &ViewFactorConfig,
+    write: &mut dyn FnMut(&StepViewFactors, &ViewFactorRun) -> Result<String, rad_pipeline::Error>,
+) -> Result<(), rad_pipeline::Error> {
+    let n_patches = scene.scene.patches().len();
+    let bar = steps_bar(ctx.report, motion, n_patches, hemi, "view factors");
+    let progress = |k: usize, n: usize| bar.set_position((k * n_patches + n) as u64);
     let report = ctx.report;
     // Each step's time runs from the end of the one before (loading the scene and
     // writing files excluded), so that users can weigh a step against a whole run.
@@ -93,28 +166,26 @@ fn moving(
     view_factors_over_motion(
         desc,
         &scene.scene,
-        &motion,
+        motion,
         hemi,
         config,
         &progress,
         &mut |s| {
             let took = since.elapsed();
-            let path = dir.join(format!("step_{:04}.{ext}", s.step));
             let run = ViewFactorRun {
                 scene: format!("{} at step {} ({})", scene.path.display(), s.step, s.name),
                 scene_hash: s.scene_hash.clone(),
                 resolution: (hemi.n_theta() as u32, hemi.n_phi() as u32),
             };
-            write_atomic(&path, |w| write_view_factors(w, &s.vf, &run, format))?;
+            let wrote = write(&s, &run)?;
             let cost = recast_note(s.moved_polygons, &s.recast);
             bar.suspend(|| {
                 say!(
                     report,
-                    "step {} ({}): {cost} in {:.1} ms; {}",
+                    "step {} ({}): {cost} in {:.1} ms{wrote}",
                     s.step,
                     s.name,
                     took.as_secs_f64() * 1e3,
-                    path.display()
                 )
             });
             since = std::time::Instant::now();
@@ -122,8 +193,7 @@ fn moving(
         },
     )?;
     bar.finish_and_clear();
-    remove_stale(report, dir, motion.steps.len(), &[ext])?;
-    Ok(Outcome::Done)
+    Ok(())
 }
 
 /// A bar over the patches, shown on long jobs.

@@ -19,6 +19,19 @@
 //!
 //! Read with numpy (the README has the snippet): `np.frombuffer(data, dtype=[("i",
 //! "<u4"), ("j", "<u4"), ("f", "<f8")], count=nnz, offset=...)`.
+//!
+//! The steps of a motion go in one file ([`StepsWriter`]), each step a whole matrix file
+//! as above, then an index:
+//!
+//! | offset | bytes | what |
+//! |---|---|---|
+//! | 0 | 8 | magic `COHERADS` |
+//! | 8 | 4 | version, 1 |
+//! | 12 | 4 | 0 (reserved) |
+//! | 16 | … | step 0's matrix file, step 1's, … (each a multiple of 8 bytes) |
+//! | end − 16 − 16 k | 16 each | the index: each step's offset and bytes, u64 |
+//! | end − 16 | 8 | magic `COHERADI` |
+//! | end − 8 | 8 | steps k |
 
 use crate::Error;
 use std::io::Write;
@@ -26,6 +39,9 @@ use std::io::Write;
 pub const MAGIC: &[u8; 8] = b"COHERADM";
 pub const END_MAGIC: &[u8; 8] = b"COHERADE";
 pub const VERSION: u32 = 1;
+pub const STEPS_MAGIC: &[u8; 8] = b"COHERADS";
+pub const INDEX_MAGIC: &[u8; 8] = b"COHERADI";
+const STEPS_HEADER: usize = 16;
 const HEADER: usize = 40;
 const ENTRY: usize = 16;
 
@@ -112,6 +128,37 @@ pub struct MatrixFile {
     pub entries: Vec<(u32, u32, f64)>,
 }
 
+/// Checks a `kind` file's frame: its head magic (after which `header` bytes), its
+/// version and its trailer's magic (16 bytes from the end).
+fn framed(
+    bytes: &[u8],
+    kind: &str,
+    (head, trailer): (&[u8; 8], &[u8; 8]),
+    header: usize,
+) -> Result<(), String> {
+    let name = |m: &[u8; 8]| String::from_utf8_lossy(m).into_owned();
+    if bytes.len() < header + 16 || &bytes[..8] != head {
+        return Err(format!(
+            "not a coherad {kind} file (no {} header)",
+            name(head)
+        ));
+    }
+    let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+    if version != VERSION {
+        return Err(format!(
+            "{kind} file version {version}; this coherad reads {VERSION}"
+        ));
+    }
+    let tail = bytes.len() - 16;
+    if &bytes[tail..tail + 8] != trailer {
+        return Err(format!(
+            "truncated: no {} trailer (an interrupted write?)",
+            name(trailer)
+        ));
+    }
+    Ok(())
+}
+
 /// Reads a matrix file's bytes; `what` names it in errors (truncated, not ours,
 /// another version, inconsistent).
 pub fn read_matrix_file(bytes: &[u8], what: &std::path::Path) -> Result<MatrixFile, Error> {
@@ -120,22 +167,9 @@ pub fn read_matrix_file(bytes: &[u8], what: &std::path::Path) -> Result<MatrixFi
         reason,
     };
     let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
-    if bytes.len() < HEADER + 16 || &bytes[..8] != MAGIC {
-        return Err(bad("not a coherad matrix file (no COHERADM header)".into()));
-    }
-    let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-    if version != VERSION {
-        return Err(bad(format!(
-            "matrix file version {version}; this coherad reads {VERSION}"
-        )));
-    }
+    framed(bytes, "matrix", (MAGIC, END_MAGIC), HEADER).map_err(bad)?;
     let (n_rows, n_cols, meta_len) = (u64_at(16), u64_at(24), u64_at(32));
     let tail = bytes.len() - 16;
-    if &bytes[tail..tail + 8] != END_MAGIC {
-        return Err(bad(
-            "truncated: no COHERADE trailer (an interrupted write?)".into(),
-        ));
-    }
     let nnz = u64_at(tail + 8);
     let areas_at = (HEADER as u64).checked_add(meta_len);
     let entries_at = areas_at.and_then(|a| n_rows.checked_mul(8).and_then(|b| a.checked_add(b)));
@@ -188,4 +222,120 @@ pub fn read_matrix_file(bytes: &[u8], what: &std::path::Path) -> Result<MatrixFi
         areas,
         entries,
     })
+}
+
+/// Writes the steps of a motion into one file: [`StepsWriter::begin`],
+/// [`StepsWriter::step`] for each step in order, [`StepsWriter::finish`].
+pub struct StepsWriter<'w, W: Write + ?Sized> {
+    w: &'w mut W,
+    at: u64,
+    index: Vec<(u64, u64)>,
+}
+
+/// Counts the bytes written through it.
+struct Counting<'a, W: Write + ?Sized> {
+    w: &'a mut W,
+    n: u64,
+}
+
+impl<W: Write + ?Sized> Write for Counting<'_, W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.w.write(buf)?;
+        self.n += n as u64;
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.w.flush()
+    }
+}
+
+impl<'w, W: Write + ?Sized> StepsWriter<'w, W> {
+    /// Writes the header.
+    pub fn begin(w: &'w mut W) -> std::io::Result<StepsWriter<'w, W>> {
+        w.write_all(STEPS_MAGIC)?;
+        w.write_all(&VERSION.to_le_bytes())?;
+        w.write_all(&0u32.to_le_bytes())?;
+        Ok(StepsWriter {
+            w,
+            at: STEPS_HEADER as u64,
+            index: Vec::new(),
+        })
+    }
+
+    /// The next step: `write` writes one whole matrix file ([`MatrixWriter`]).
+    pub fn step(
+        &mut self,
+        write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+    ) -> std::io::Result<()> {
+        let mut c = Counting { w: self.w, n: 0 };
+        write(&mut c)?;
+        if c.n % 8 != 0 || c.n < (HEADER + 16) as u64 {
+            return Err(std::io::Error::other(format!(
+                "step {} wrote {} bytes, not a matrix file",
+                self.index.len(),
+                c.n
+            )));
+        }
+        self.index.push((self.at, c.n));
+        self.at += c.n;
+        Ok(())
+    }
+
+    /// Writes the index and the trailer; returns the steps written.
+    pub fn finish(self) -> std::io::Result<usize> {
+        for &(at, n) in &self.index {
+            self.w.write_all(&at.to_le_bytes())?;
+            self.w.write_all(&n.to_le_bytes())?;
+        }
+        self.w.write_all(INDEX_MAGIC)?;
+        self.w.write_all(&(self.index.len() as u64).to_le_bytes())?;
+        Ok(self.index.len())
+    }
+}
+
+/// Reads a file of steps ([`StepsWriter`]): each step's matrix; `what` names it in
+/// errors (truncated, not ours, another version, an index that does not tile the file,
+/// a step's matrix bad, named by its step).
+pub fn read_matrix_steps(bytes: &[u8], what: &std::path::Path) -> Result<Vec<MatrixFile>, Error> {
+    let bad = |reason: String| Error::Solution {
+        path: what.to_path_buf(),
+        reason,
+    };
+    let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
+    framed(bytes, "steps", (STEPS_MAGIC, INDEX_MAGIC), STEPS_HEADER).map_err(bad)?;
+    let tail = bytes.len() - 16;
+    let k = u64_at(tail + 8);
+    let index_at = k
+        .checked_mul(16)
+        .and_then(|b| (tail as u64).checked_sub(b))
+        .filter(|&i| i >= STEPS_HEADER as u64);
+    let Some(index_at) = index_at else {
+        return Err(bad(format!("its index of {k} steps does not fit the file")));
+    };
+    let mut at = STEPS_HEADER as u64;
+    let mut steps = Vec::with_capacity(k as usize);
+    for s in 0..k as usize {
+        let o = index_at as usize + 16 * s;
+        let (start, n) = (u64_at(o), u64_at(o + 8));
+        if start != at || n > index_at - at {
+            return Err(bad(format!(
+                "step {s}: its bytes {start}..{} do not follow the step before within the steps (which end at {index_at})",
+                start.saturating_add(n)
+            )));
+        }
+        let step = &bytes[start as usize..(start + n) as usize];
+        let m = read_matrix_file(step, what).map_err(|e| match e {
+            Error::Solution { reason, .. } => bad(format!("step {s}: {reason}")),
+            e => e,
+        })?;
+        steps.push(m);
+        at += n;
+    }
+    if at != index_at {
+        return Err(bad(format!(
+            "{} bytes between the last step and the index",
+            index_at - at
+        )));
+    }
+    Ok(steps)
 }

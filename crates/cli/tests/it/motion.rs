@@ -136,7 +136,11 @@ fn a_motion_writes_one_file_a_step_and_refuses_bad_motions() {
     }
     std::fs::write(&motion, turning(2)).unwrap();
     let run = coherad(&["viewfactors", sat, "--motion", motion.to_str().unwrap()]);
-    assert!(String::from_utf8_lossy(&run.stderr).contains("give --out FOLDER"));
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        err.contains("give --out FOLDER") && err.contains("FILE.bin"),
+        "{err}"
+    );
     let run = coherad(&[
         "viewfactors",
         sat,
@@ -146,6 +150,79 @@ fn a_motion_writes_one_file_a_step_and_refuses_bad_motions() {
         plain.to_str().unwrap(),
     ]);
     assert!(String::from_utf8_lossy(&run.stderr).contains("is a file"));
+}
+
+/// `--out FILE.bin`: every step in one binary file with a step index, each step the
+/// matrix the folder's `step_NNNN.bin` holds; a failed run writes no file.
+#[test]
+fn a_motion_into_one_binary_file_indexes_its_steps() {
+    use rad_pipeline::matrix_file::{read_matrix_file, read_matrix_steps};
+    let dir = tempfile::tempdir().unwrap();
+    let sat = bench_scene("satellite.json");
+    let sat = sat.to_str().unwrap();
+    let motion = dir.path().join("m.json");
+    std::fs::write(&motion, turning(3)).unwrap();
+    let run_to = |out: &Path| {
+        coherad(&[
+            "viewfactors",
+            sat,
+            "--by",
+            "group",
+            "--resolution",
+            "20x80",
+            "--format",
+            "bin",
+            "--motion",
+            motion.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let (file, folder) = (dir.path().join("steps.bin"), dir.path().join("steps"));
+    for out in [&file, &folder] {
+        let run = run_to(out);
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+    }
+    let bytes = std::fs::read(&file).unwrap();
+    let steps = read_matrix_steps(&bytes, &file).unwrap();
+    assert_eq!(steps.len(), 3);
+    for (k, step) in steps.iter().enumerate() {
+        let one = folder.join(format!("step_{k:04}.bin"));
+        assert_eq!(
+            *step,
+            read_matrix_file(&std::fs::read(&one).unwrap(), &one).unwrap(),
+            "step {k}"
+        );
+    }
+    assert_ne!(steps[0].entries, steps[2].entries, "the arrays turned");
+    // Cut short, or an index that points astray: refused by name.
+    let cut = read_matrix_steps(&bytes[..bytes.len() - 9], &file).unwrap_err();
+    assert!(cut.to_string().contains("truncated"), "{cut}");
+    let mut astray = bytes.clone();
+    let at = bytes.len() - 16 - 16 * 2;
+    astray[at..at + 8].copy_from_slice(&17u64.to_le_bytes());
+    let e = read_matrix_steps(&astray, &file).unwrap_err();
+    assert!(e.to_string().contains("step 1"), "{e}");
+    // A motion refused at step 1, once step 0 is made: no file, and an earlier one
+    // left as it was.
+    std::fs::write(
+        &motion,
+        r#"{"steps": [{}, {"name": "into the bus", "groups": {"array +x": {"translate": [-1.8, 0, 0]}}}]}"#,
+    )
+    .unwrap();
+    let run = run_to(&file);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{err}");
+    assert!(err.contains("step 1 (\"into the bus\""), "{err}");
+    assert_eq!(std::fs::read(&file).unwrap(), bytes);
+    let fresh = dir.path().join("fresh.bin");
+    assert_eq!(run_to(&fresh).status.code(), Some(1));
+    assert!(!fresh.exists());
+    assert!(files(dir.path()).iter().all(|f| !f.ends_with(".tmp")));
 }
 
 #[test]
