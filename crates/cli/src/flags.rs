@@ -150,13 +150,15 @@ pub struct ViewfactorsArgs {
     #[arg(long)]
     pub caster: Option<CasterKind>,
     /// Write here instead of standard output (atomically: all or nothing). With
-    /// --motion, a folder (made if missing) that gets one file a step.
+    /// --motion, a folder (made if missing) that gets one file a step; or, in the bin
+    /// format, a FILE.bin that gets every step, with a step index.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// A motion file (JSON, or a glTF file whose node animations move its meshes; see docs/formats.md): named groups moved rigidly through
-    /// steps. Writes one matrix a step into --out, step_0000.json and on (the format's
-    /// extension), each when made; a step casts again only the cells that what moved
-    /// can change, and gives the factors a whole run of that step gives, to the bit.
+    /// steps. Writes one matrix a step into the folder --out, step_0000.json and on (the
+    /// format's extension), each when made, or every step into one --out FILE.bin; a step
+    /// casts again only the cells that what moved can change, and gives the factors a
+    /// whole run of that step gives, to the bit.
     #[arg(long)]
     pub motion: Option<PathBuf>,
 }

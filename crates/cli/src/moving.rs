@@ -40,7 +40,7 @@ pub(crate) fn motion_folder<'p>(
 ) -> Result<(&'p Path, Motion), Error> {
     let Some(dir) = out else {
         return Err(Error::Flags(
-            "--motion writes one file a step: give --out FOLDER (or, for view factors, --out FILE.bin: one binary file with a step index)".into(),
+            "--motion writes one file a step: give --out FOLDER".into(),
         ));
     };
     if dir.is_file() {
@@ -58,13 +58,19 @@ pub(crate) fn motion_folder<'p>(
     Ok((dir, motion))
 }
 
-/// The motion read from `path` and checked against `desc`; refused under MPI.
-pub(crate) fn checked_motion(ctx: &Ctx, path: &Path, desc: &SceneDesc) -> Result<Motion, Error> {
+/// A motion runs in one process: refused under MPI.
+fn one_process(ctx: &Ctx) -> Result<(), Error> {
     if ctx.ranks.size() > 1 {
         return Err(Error::Flags(
             "--motion runs in one process: run it without mpirun".into(),
         ));
     }
+    Ok(())
+}
+
+/// The motion read from `path` and checked against `desc`; refused under MPI.
+pub(crate) fn checked_motion(ctx: &Ctx, path: &Path, desc: &SceneDesc) -> Result<Motion, Error> {
+    one_process(ctx)?;
     let motion = read_motion(path).map_err(rad_pipeline::Error::from)?;
     motion.check(desc).map_err(rad_pipeline::Error::from)?;
     Ok(motion)
@@ -100,6 +106,7 @@ impl Steps {
     /// Loads `scene` keeping its description, reads `motion` and checks it against it
     /// (one process only: refused under MPI). Makes no folder.
     pub fn load(ctx: &Ctx, scene: &Path, motion: &Path) -> Result<Steps, Error> {
+        one_process(ctx)?;
         let (scene, desc) = ctx.load_keeping(scene, true)?;
         let desc = desc.expect("kept as asked");
         let motion = checked_motion(ctx, motion, &desc)?;

@@ -80,6 +80,11 @@ fn moving(
     format: MatrixFormat,
     out: Option<&Path>,
 ) -> Result<Outcome, Error> {
+    if out.is_none() {
+        return Err(Error::Flags(
+            "--motion writes one file a step: give --out FOLDER (or --out FILE.bin: one binary file with a step index)".into(),
+        ));
+    }
     if let Some(file) = out.filter(|o| format == MatrixFormat::Bin && is_steps_file(o)) {
         let motion = checked_motion(ctx, motion, desc)?;
         return moving_one_file(ctx, (scene, desc, &motion), hemi, config, file);
@@ -98,10 +103,13 @@ fn moving(
     Ok(Outcome::Done)
 }
 
-/// Whether `--out` names one file for every step of a motion (`.bin`, not a folder).
+/// Whether `--out` names one file for every step of a motion: `.bin`, not a folder (an
+/// existing one, or a path ending in a separator).
 fn is_steps_file(out: &Path) -> bool {
+    let text = out.as_os_str().to_string_lossy();
     out.extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("bin"))
+        && !text.ends_with(std::path::is_separator)
         && !out.is_dir()
 }
 

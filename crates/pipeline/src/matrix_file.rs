@@ -262,7 +262,8 @@ impl<'w, W: Write + ?Sized> StepsWriter<'w, W> {
         })
     }
 
-    /// The next step: `write` writes one whole matrix file ([`MatrixWriter`]).
+    /// The next step: `write` writes one whole matrix file ([`MatrixWriter`]). After an
+    /// error the file is no steps file: drop the writer (and the file).
     pub fn step(
         &mut self,
         write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
@@ -313,7 +314,8 @@ pub fn read_matrix_steps(bytes: &[u8], what: &std::path::Path) -> Result<Vec<Mat
         return Err(bad(format!("its index of {k} steps does not fit the file")));
     };
     let mut at = STEPS_HEADER as u64;
-    let mut steps = Vec::with_capacity(k as usize);
+    // (No room made from `k` before each step is read: a crafted count is not trusted.)
+    let mut steps = Vec::new();
     for s in 0..k as usize {
         let o = index_at as usize + 16 * s;
         let (start, n) = (u64_at(o), u64_at(o + 8));

@@ -199,6 +199,19 @@ fn a_motion_into_one_binary_file_indexes_its_steps() {
         );
     }
     assert_ne!(steps[0].entries, steps[2].entries, "the arrays turned");
+    // A `.bin` path ending in a separator is a folder, as before.
+    let slash =
+        std::path::PathBuf::from(format!("{}/", dir.path().join("as_folder.bin").display()));
+    let run = run_to(&slash);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert_eq!(
+        files(&dir.path().join("as_folder.bin")),
+        ["step_0000.bin", "step_0001.bin", "step_0002.bin"]
+    );
     // Cut short, or an index that points astray: refused by name.
     let cut = read_matrix_steps(&bytes[..bytes.len() - 9], &file).unwrap_err();
     assert!(cut.to_string().contains("truncated"), "{cut}");

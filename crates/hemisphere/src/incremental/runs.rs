@@ -354,7 +354,11 @@ mod tests {
             w.push(id, n);
         }
         w.copy_ring(runs.ring_bytes(2));
-        let new = w.finish(merged_seen(runs.seen(), &[3, 7], &[(0, 0, 3), (1, 1, 1)]));
+        let new = w.finish(merged_seen(
+            runs.seen(),
+            &[3, 4, 7],
+            &[(0, 0, 3), (0, 1, 4), (1, 1, 1)],
+        ));
         assert_eq!(
             new.iter().collect::<Vec<_>>(),
             [
@@ -371,7 +375,7 @@ mod tests {
             new.seen(),
             [
                 seen(3, 0, 0, 3),
-                seen(4, 0, 1, 2),
+                seen(4, 0, 1, 4),
                 seen(7, 1, 1, 1),
                 seen(9, 2, 2, 1),
                 seen(BACK, 2, 2, 1),
